@@ -1,0 +1,206 @@
+"""Plane geometry on polygons and point sets: hulls, areas, rectangles, distances.
+
+Angles that a user reads are *bearings*: degrees clockwise from grid north (+y),
+as surveyors give them. Polygons are ``(K, 2)`` arrays of vertices, counter-clockwise,
+not closed (the last vertex is not a repeat of the first).
+
+Examples
+--------
+>>> import numpy as np
+>>> from mbinspect.geometry import polygon_area, min_area_rectangle
+>>> square = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float)
+>>> polygon_area(square)
+4.0
+>>> rect = min_area_rectangle(square)
+>>> round(rect.length, 6), round(rect.width, 6)
+(2.0, 2.0)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "bearing_to_vector",
+    "vector_to_bearing",
+    "convex_hull",
+    "polygon_area",
+    "polygon_centroid",
+    "Rectangle",
+    "min_area_rectangle",
+    "rectangle_corners",
+    "polygon_distance",
+    "points_in_polygon",
+]
+
+
+def bearing_to_vector(bearing_deg: float) -> np.ndarray:
+    """Unit vector (east, north) of a bearing in degrees clockwise from north."""
+    b = math.radians(bearing_deg)
+    return np.array([math.sin(b), math.cos(b)])
+
+
+def vector_to_bearing(v: np.ndarray, *, axial: bool = False) -> float:
+    """Bearing in degrees clockwise from north of vector ``(east, north)``.
+
+    With ``axial=True`` the result is folded into [0, 180) (an axis has no sense).
+    """
+    b = math.degrees(math.atan2(float(v[0]), float(v[1]))) % 360.0
+    return b % 180.0 if axial else b
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Convex hull of 2-D points, counter-clockwise (monotone chain), shape (K, 2)."""
+    pts = np.unique(np.asarray(points, dtype=np.float64)[:, :2], axis=0)
+    if len(pts) < 3:
+        return pts
+
+    def half(seq: np.ndarray) -> list[np.ndarray]:
+        out: list[np.ndarray] = []
+        for p in seq:
+            while len(out) >= 2:
+                a, b = out[-2], out[-1]
+                if (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) > 0:
+                    break
+                out.pop()
+            out.append(p)
+        return out
+
+    lower = half(pts)
+    upper = half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def polygon_area(poly: np.ndarray) -> float:
+    """Area of a simple polygon (shoelace); positive for counter-clockwise."""
+    p = np.asarray(poly, dtype=np.float64)
+    if len(p) < 3:
+        return 0.0
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def polygon_centroid(poly: np.ndarray) -> np.ndarray:
+    """Area centroid of a simple polygon, shape (2,)."""
+    p = np.asarray(poly, dtype=np.float64)
+    a = polygon_area(p)
+    if abs(a) < 1e-12:
+        return p.mean(axis=0)
+    x, y = p[:, 0], p[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    return np.array([np.sum((x + xn) * cross), np.sum((y + yn) * cross)]) / (6.0 * a)
+
+
+@dataclass(frozen=True)
+class Rectangle:
+    """An oriented rectangle: centre, side lengths and the bearing of its long side."""
+
+    cx: float
+    cy: float
+    length: float
+    width: float
+    bearing_deg: float
+
+    @property
+    def area(self) -> float:
+        return self.length * self.width
+
+
+def rectangle_corners(
+    cx: float, cy: float, length: float, width: float, bearing_deg: float
+) -> np.ndarray:
+    """The four corners (counter-clockwise) of an oriented rectangle, shape (4, 2)."""
+    u = bearing_to_vector(bearing_deg) * (length / 2.0)
+    w = np.array([u[1], -u[0]]) * (width / max(length, 1e-300))
+    c = np.array([cx, cy])
+    corners = np.array([c - u - w, c + u - w, c + u + w, c - u + w])
+    if polygon_area(corners) < 0:
+        corners = corners[::-1]
+    return corners
+
+
+def min_area_rectangle(points: np.ndarray) -> Rectangle:
+    """Minimum-area enclosing rectangle of 2-D points (rotating calipers on the hull)."""
+    hull = convex_hull(points)
+    if len(hull) < 3:
+        pts = np.asarray(points, dtype=np.float64)[:, :2]
+        c = pts.mean(axis=0)
+        if len(pts) < 2:
+            return Rectangle(float(c[0]), float(c[1]), 0.0, 0.0, 0.0)
+        d = pts.max(axis=0) - pts.min(axis=0)
+        length = float(np.hypot(*d))
+        return Rectangle(float(c[0]), float(c[1]), length, 0.0, vector_to_bearing(d, axial=True))
+    edges = np.roll(hull, -1, axis=0) - hull
+    angles = np.unique(np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2))
+    best: tuple[float, float, float, float, float, float] | None = None
+    for ang in angles:
+        c, s = math.cos(ang), math.sin(ang)
+        u = hull @ np.array([c, s])
+        v = hull @ np.array([-s, c])
+        area = float((u.max() - u.min()) * (v.max() - v.min()))
+        if best is None or area < best[0] - 1e-12:
+            best = (area, ang, u.min(), u.max(), v.min(), v.max())
+    assert best is not None
+    _, ang, u0, u1, v0, v1 = best
+    c, s = math.cos(ang), math.sin(ang)
+    du, dv = u1 - u0, v1 - v0
+    centre = np.array([c, s]) * (u0 + u1) / 2 + np.array([-s, c]) * (v0 + v1) / 2
+    if du >= dv:
+        axis, length, width = np.array([c, s]), du, dv
+    else:
+        axis, length, width = np.array([-s, c]), dv, du
+    return Rectangle(
+        float(centre[0]), float(centre[1]), float(length), float(width),
+        vector_to_bearing(axis, axial=True),
+    )
+
+
+def _segments_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance of each point in ``p`` (M, 2) to each segment a[k]-b[k]: shape (M, K)."""
+    ab = b - a
+    ap = p[:, None, :] - a[None, :, :]
+    denom = np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300)
+    t = np.clip(np.einsum("mkj,kj->mk", ap, ab) / denom, 0.0, 1.0)
+    closest = a[None] + t[..., None] * ab[None]
+    return np.linalg.norm(p[:, None, :] - closest, axis=2)
+
+
+def _convex_overlap(p: np.ndarray, q: np.ndarray) -> bool:
+    for poly in (p, q):
+        edges = np.roll(poly, -1, axis=0) - poly
+        normals = np.column_stack([-edges[:, 1], edges[:, 0]])
+        pp, qq = p @ normals.T, q @ normals.T
+        if np.any((pp.max(axis=0) < qq.min(axis=0)) | (qq.max(axis=0) < pp.min(axis=0))):
+            return False
+    return True
+
+
+def polygon_distance(p: np.ndarray, q: np.ndarray) -> float:
+    """Smallest distance between two convex polygons; 0 when they touch or overlap."""
+    p = np.asarray(p, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    if _convex_overlap(p, q):
+        return 0.0
+    d1 = _segments_distance(p, q, np.roll(q, -1, axis=0)).min()
+    d2 = _segments_distance(q, p, np.roll(p, -1, axis=0)).min()
+    return float(min(d1, d2))
+
+
+def points_in_polygon(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Boolean mask of the 2-D points inside a simple polygon (even-odd rule)."""
+    pts = np.asarray(points, dtype=np.float64)[:, :2]
+    poly = np.asarray(poly, dtype=np.float64)
+    x, y = pts[:, 0], pts[:, 1]
+    inside = np.zeros(len(pts), dtype=bool)
+    xj, yj = poly[-1]
+    for xi, yi in poly:
+        crosses = (yi > y) != (yj > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xc = (xj - xi) * (y - yi) / (yj - yi) + xi
+        inside ^= crosses & (x < xc)
+        xj, yj = xi, yi
+    return inside

@@ -1,0 +1,776 @@
+"""Point clouds in and out: a small container, readers and writers.
+
+Points are ``(N, 3)`` float64 in metres, x east, y north, z elevation (up, so
+depths are negative). Readers never guess the sign of z: exports that write depth
+positive down are read with ``depth_positive=True``.
+
+Formats, chosen by extension or ``format=``:
+
+========  =====================================  ==================================
+format    extensions                             per-point fields kept
+========  =====================================  ==================================
+xyz       .xyz .txt .csv .pts .asc               any named or mapped column
+las       .las .laz                              intensity, classification, line
+                                                 (point source id), beam_angle
+                                                 (scan angle), any extra bytes
+ply       .ply (ascii and binary)                every vertex property
+npz       .npz                                   every array of length N
+========  =====================================  ==================================
+
+Examples
+--------
+>>> import numpy as np, tempfile, pathlib
+>>> from mbinspect.io import PointCloud, read, write
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> cloud = PointCloud(np.array([[0.0, 0.0, -20.0], [1.0, 0.0, -20.5]]))
+>>> write(cloud, d / "two.xyz")
+>>> len(read(d / "two.xyz"))
+2
+"""
+
+from __future__ import annotations
+
+import io as _io
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import FileAccessError, InputError, NotEnoughPointsError, ParameterError
+
+__all__ = [
+    "PointCloud",
+    "FORMATS",
+    "read",
+    "write",
+    "format_from_path",
+    "parse_columns",
+    "atomic_path",
+    "check_points",
+]
+
+#: Recognised formats and the extensions that select them.
+FORMATS: dict[str, tuple[str, ...]] = {
+    "xyz": (".xyz", ".txt", ".csv", ".pts", ".asc"),
+    "las": (".las", ".laz"),
+    "ply": (".ply",),
+    "npz": (".npz",),
+}
+
+# Header names understood in ASCII files, mapped to the canonical field names.
+_ALIASES: dict[str, str] = {
+    "x": "x", "easting": "x", "east": "x", "e": "x", "lon": "x", "longitude": "x",
+    "y": "y", "northing": "y", "north": "y", "n": "y", "lat": "y", "latitude": "y",
+    "z": "z", "elevation": "z", "height": "z", "h": "z", "depth": "z", "d": "z",
+    "intensity": "intensity", "backscatter": "intensity", "bs": "intensity",
+    "amplitude": "intensity", "reflectivity": "intensity", "i": "intensity",
+    "beam_angle": "beam_angle", "angle": "beam_angle", "beam": "beam_angle",
+    "scan_angle": "beam_angle",
+    "line": "line", "line_id": "line", "linename": "line", "line_name": "line",
+    "ping": "ping", "ping_id": "ping", "ping_number": "ping",
+    "classification": "classification", "class": "classification",
+}
+_DEPTH_NAMES = {"depth", "d"}
+
+# Files above this size are parsed in parallel chunks (one per core).
+_PARALLEL_BYTES = 16 * 2**20
+
+
+@dataclass(frozen=True, eq=False)
+class PointCloud:
+    """Soundings with optional per-point fields and metadata.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (N, 3)
+        Coordinates in metres: x east, y north, z elevation (up).
+    fields : mapping of str to ndarray, shape (N,)
+        Per-point attributes: ``intensity`` (backscatter), ``beam_angle`` (degrees),
+        ``line``, ``ping``, ``classification`` and any other.
+    source : str, optional
+        The file the points came from.
+    crs : str, optional
+        Coordinate reference system when the file says it (WKT or EPSG code).
+    z_convention : str
+        How z was stored in the source: ``"elevation"`` (up) or ``"depth"``
+        (positive down, flipped on reading). ``xyz`` is always elevation.
+    """
+
+    xyz: np.ndarray
+    fields: Mapping[str, np.ndarray] = field(default_factory=dict)
+    source: str | None = None
+    crs: str | None = None
+    z_convention: str = "elevation"
+
+    def __post_init__(self) -> None:
+        xyz = np.ascontiguousarray(self.xyz, dtype=np.float64)
+        if xyz.ndim != 2 or xyz.shape[1] != 3:
+            raise ParameterError(f"xyz: expected shape (N, 3), got {xyz.shape}")
+        n = xyz.shape[0]
+        fields = {}
+        for name, values in self.fields.items():
+            arr = np.asarray(values)
+            if arr.shape != (n,):
+                raise ParameterError(
+                    f"field {name!r}: expected shape ({n},), got {arr.shape}"
+                )
+            fields[name] = arr
+        object.__setattr__(self, "xyz", xyz)
+        object.__setattr__(self, "fields", fields)
+
+    def __len__(self) -> int:
+        return int(self.xyz.shape[0])
+
+    @property
+    def intensity(self) -> np.ndarray | None:
+        """Backscatter intensity per point, or None when the file has none."""
+        return self.fields.get("intensity")
+
+    def subset(self, index: np.ndarray) -> PointCloud:
+        """The cloud restricted to a boolean mask or an index array."""
+        return replace(
+            self,
+            xyz=self.xyz[index],
+            fields={k: v[index] for k, v in self.fields.items()},
+        )
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Minimum and maximum corner, each shape (3,)."""
+        if len(self) == 0:
+            raise NotEnoughPointsError("the cloud has no points")
+        return self.xyz.min(axis=0), self.xyz.max(axis=0)
+
+
+def check_points(points: np.ndarray, *, minimum: int = 1, name: str = "points") -> np.ndarray:
+    """Return ``points`` as ``(N, 3)`` float64, checking shape, finiteness and count.
+
+    Raises
+    ------
+    ParameterError
+        Wrong shape or non-finite values.
+    NotEnoughPointsError
+        Fewer than ``minimum`` points.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise ParameterError(f"{name}: expected an (N, 3) array, got shape {pts.shape}")
+    if pts.shape[0] < minimum:
+        raise NotEnoughPointsError(
+            f"{name}: {pts.shape[0]} points, at least {minimum} needed"
+        )
+    if not np.isfinite(pts).all():
+        bad = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+        raise ParameterError(f"{name}: point {bad} is not finite: {pts[bad].tolist()}")
+    return pts
+
+
+def format_from_path(path: str | os.PathLike[str], format: str | None = None) -> str:
+    """The format name for ``path`` (or the explicit ``format``)."""
+    if format is not None:
+        fmt = format.lower()
+        if fmt not in FORMATS:
+            raise ParameterError(
+                f"--format: unknown format {format!r}; expected one of {', '.join(FORMATS)}"
+            )
+        return fmt
+    suffix = Path(path).suffix.lower()
+    for fmt, exts in FORMATS.items():
+        if suffix in exts:
+            return fmt
+    known = " ".join(e for exts in FORMATS.values() for e in exts)
+    raise InputError(
+        f"{path}: unknown extension {suffix or '(none)'!r}; expected one of {known} "
+        "or an explicit --format"
+    )
+
+
+def parse_columns(spec: str | Sequence[str]) -> list[str | None]:
+    """Parse a column map such as ``"x,y,z,intensity"`` or ``"x,y,-,depth"``.
+
+    ``-`` (or ``skip``) skips a column. Names are the canonical fields or any alias
+    (``easting``, ``backscatter`` ...); other names are kept as extra fields.
+    """
+    items = spec.split(",") if isinstance(spec, str) else list(spec)
+    out: list[str | None] = []
+    for raw in items:
+        name = raw.strip().lower()
+        if name in ("-", "skip", "_", ""):
+            out.append(None)
+        else:
+            out.append(_ALIASES.get(name, name))
+    present = [c for c in out if c is not None]
+    for axis in ("x", "y", "z"):
+        if present.count(axis) != 1:
+            raise ParameterError(
+                f"--columns {','.join(items)!r}: expected exactly one {axis!r} column"
+            )
+    dup = {c for c in present if present.count(c) > 1}
+    if dup:
+        raise ParameterError(f"--columns: column {sorted(dup)[0]!r} named twice")
+    return out
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def read(
+    path: str | os.PathLike[str],
+    *,
+    format: str | None = None,
+    columns: str | Sequence[str] | None = None,
+    depth_positive: bool = False,
+    delimiter: str | None = None,
+) -> PointCloud:
+    """Read a point cloud file.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to read.
+    format : {"xyz", "las", "ply", "npz"}, optional
+        Overrides the format inferred from the extension.
+    columns : str or sequence of str, optional
+        ASCII only: what each column holds, e.g. ``"x,y,z,intensity"`` or
+        ``"x,y,-,z"`` (``-`` skips a column). Default: the header names when there
+        is a header; else 3 columns are x y z and 4 are x y z intensity.
+    depth_positive : bool
+        The file stores depth positive down: z is negated so that it is elevation.
+        Never guessed; default False.
+    delimiter : str, optional
+        ASCII only: the column delimiter. Default: sniffed from the first data
+        line (comma, semicolon, tab or whitespace).
+
+    Returns
+    -------
+    PointCloud
+
+    Raises
+    ------
+    FileAccessError
+        Missing file, a directory, unreadable.
+    InputError
+        Malformed content; the message names the line and column.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileAccessError(f"{p}: no such file")
+    if p.is_dir():
+        raise FileAccessError(f"{p}: is a directory, expected a point cloud file")
+    fmt = format_from_path(p, format)
+    if fmt != "xyz" and columns is not None:
+        raise ParameterError(f"--columns applies to ASCII files only, not to {fmt} ({p})")
+    try:
+        if p.stat().st_size == 0:
+            raise InputError(f"{p}: the file is empty")
+        if fmt == "xyz":
+            cloud = _read_ascii(p, columns=columns, delimiter=delimiter)
+        elif fmt == "las":
+            cloud = _read_las(p)
+        elif fmt == "ply":
+            cloud = _read_ply(p)
+        else:
+            cloud = _read_npz(p)
+    except PermissionError as exc:
+        raise FileAccessError(f"{p}: cannot be read ({exc.strerror})") from None
+    if len(cloud) == 0:
+        raise InputError(f"{p}: the file holds no points")
+    bad = ~np.isfinite(cloud.xyz).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(
+            f"{p}: point {i + 1} has a non-finite coordinate {cloud.xyz[i].tolist()}; "
+            "expected finite numbers"
+        )
+    if depth_positive:
+        xyz = cloud.xyz.copy()
+        xyz[:, 2] *= -1.0
+        cloud = replace(cloud, xyz=xyz, z_convention="depth")
+    return cloud
+
+
+@dataclass(frozen=True)
+class _AsciiLayout:
+    delimiter: str | None  # None = runs of whitespace
+    names: list[str | None]  # field per column (None = skip)
+    ncols: int  # columns per data line, before any trailing delimiter
+    trailing: bool  # every data line ends with a delimiter
+    data_start: int  # byte offset of the first data line
+    first_line: int  # 1-based line number of the first data line
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    if delimiter is None:
+        return line.split()
+    return [c.strip() for c in line.split(delimiter)]
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _sniff_ascii(
+    path: Path, columns: str | Sequence[str] | None, delimiter: str | None
+) -> _AsciiLayout:
+    offset = 0
+    lineno = 0
+    header: list[str] | None = None
+    with open(path, "rb") as fh:
+        for raw in fh:
+            lineno += 1
+            try:
+                line = raw.decode("utf-8-sig" if lineno == 1 else "utf-8")
+            except UnicodeDecodeError:
+                raise InputError(
+                    f"{path}, line {lineno}: not text (undecodable bytes); "
+                    "expected an ASCII point file"
+                ) from None
+            stripped = line.strip()
+            if not stripped or stripped.startswith("#") or stripped.startswith("//"):
+                offset += len(raw)
+                continue
+            if delimiter is None:
+                for cand in (",", ";", "\t"):
+                    if cand in stripped:
+                        delimiter = cand if cand != "\t" else None
+                        break
+            cells = _split(stripped, delimiter)
+            trailing = len(cells) > 1 and cells[-1] == ""
+            if trailing:
+                cells = cells[:-1]
+            if header is None and not all(_is_number(c) for c in cells if c):
+                header = [c.strip().strip('"').strip("'") for c in cells]
+                offset += len(raw)
+                continue
+            ncols = len(cells)
+            break
+        else:
+            raise InputError(f"{path}: no data lines (only comments, blank lines or a header)")
+    # decide what the columns hold
+    if columns is not None:
+        names = parse_columns(columns)
+        if len(names) != ncols:
+            raise InputError(
+                f"{path}, line {lineno}: {ncols} columns, but --columns names {len(names)}"
+            )
+    elif header is not None:
+        if len(header) != ncols:
+            raise InputError(
+                f"{path}, line {lineno}: {ncols} columns, but the header names {len(header)}"
+            )
+        names = [_ALIASES.get(h.lower(), h.lower()) for h in header]
+        missing = [a for a in ("x", "y", "z") if a not in names]
+        if missing:
+            raise InputError(
+                f"{path}, header: no column for {', '.join(missing)} in {header}; "
+                "name them (x,y,z / easting,northing,depth) or pass --columns"
+            )
+        if any(h.lower() in _DEPTH_NAMES for h in header):
+            # the header says depth: still never flip silently, but say so once.
+            import warnings
+
+            warnings.warn(
+                f"{path}: the header names a depth column; z is read as given "
+                "(pass depth_positive=True / --depth-positive if it is positive down)",
+                stacklevel=3,
+            )
+    elif ncols == 3:
+        names = ["x", "y", "z"]
+    elif ncols == 4:
+        names = ["x", "y", "z", "intensity"]
+    elif ncols < 3:
+        raise InputError(
+            f"{path}, line {lineno}: {ncols} column{'s' if ncols != 1 else ''}; "
+            "expected at least 3 (x y z)"
+        )
+    else:
+        raise InputError(
+            f"{path}, line {lineno}: {ncols} columns and no header; "
+            "pass --columns (e.g. x,y,z,intensity,-) to say which is which"
+        )
+    return _AsciiLayout(delimiter, names, ncols, trailing, offset, lineno)
+
+
+def _parse_chunk(args: tuple[str, int, int, str | None, int, bool]) -> np.ndarray | str:
+    path, start, stop, delimiter, ncols, trailing = args
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        data = fh.read(stop - start)
+    try:
+        with _quiet_empty():
+            arr = np.loadtxt(
+                _io.BytesIO(data),
+                delimiter=delimiter,
+                comments=("#", "//"),
+                dtype=np.float64,
+                ndmin=2,
+                usecols=range(ncols) if trailing else None,
+                encoding="utf-8",
+            )
+    except ValueError as exc:
+        return str(exc)
+    if arr.size == 0:
+        return np.empty((0, ncols))
+    if arr.shape[1] != ncols:
+        return f"the number of columns changed from {ncols} to {arr.shape[1]}"
+    return arr
+
+
+@contextmanager
+def _quiet_empty() -> Iterator[None]:
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*input contained no data.*")
+        yield
+
+
+def _chunk_bounds(path: Path, start: int, parts: int) -> list[tuple[int, int]]:
+    size = path.stat().st_size
+    cuts = [start]
+    with open(path, "rb") as fh:
+        for k in range(1, parts):
+            fh.seek(start + (size - start) * k // parts)
+            fh.readline()
+            cuts.append(max(fh.tell(), cuts[-1]))
+    cuts.append(size)
+    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
+
+
+def _locate_ascii_error(path: Path, layout: _AsciiLayout) -> str:
+    """Scan the file line by line and describe the first bad line exactly."""
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if lineno < layout.first_line:
+                continue
+            stripped = line.strip()
+            if not stripped or stripped.startswith("#") or stripped.startswith("//"):
+                continue
+            cells = _split(stripped, layout.delimiter)
+            if layout.trailing and cells and cells[-1] == "":
+                cells = cells[:-1]
+            if len(cells) != layout.ncols:
+                return (
+                    f"{path}, line {lineno}: {len(cells)} columns, expected {layout.ncols} "
+                    "like the lines before"
+                )
+            for col, cell in enumerate(cells, start=1):
+                if not _is_number(cell):
+                    return (
+                        f"{path}, line {lineno}, column {col}: {cell!r} is not a number"
+                    )
+    return f"{path}: could not be parsed as a {layout.ncols}-column point file"
+
+
+def _read_ascii(
+    path: Path, *, columns: str | Sequence[str] | None, delimiter: str | None
+) -> PointCloud:
+    if delimiter is not None and delimiter.lower() in ("space", "whitespace", " "):
+        delimiter = None
+    elif delimiter is not None and delimiter.lower() == "tab":
+        delimiter = "\t"
+    layout = _sniff_ascii(path, columns, delimiter)
+    size = path.stat().st_size
+    cpus = os.cpu_count() or 1
+    parts = min(cpus, 8) if size - layout.data_start > _PARALLEL_BYTES else 1
+    chunks = [
+        (str(path), a, b, layout.delimiter, layout.ncols, layout.trailing)
+        for a, b in _chunk_bounds(path, layout.data_start, parts)
+    ]
+    results: list[np.ndarray | str]
+    if len(chunks) > 1:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
+        with ProcessPoolExecutor(len(chunks), mp_context=ctx) as pool:
+            results = list(pool.map(_parse_chunk, chunks))
+    else:
+        results = [_parse_chunk(c) for c in chunks]
+    if any(isinstance(r, str) for r in results):
+        raise InputError(_locate_ascii_error(path, layout))
+    table = np.concatenate([r for r in results if not isinstance(r, str)], axis=0)
+    bad_rows = ~np.isfinite(table).all(axis=1)
+    if bad_rows.any():
+        raise InputError(_locate_nonfinite(path, layout, int(np.flatnonzero(bad_rows)[0])))
+    cols = {name: table[:, i] for i, name in enumerate(layout.names) if name is not None}
+    xyz = np.column_stack([cols.pop("x"), cols.pop("y"), cols.pop("z")])
+    return PointCloud(xyz, cols, source=str(path))
+
+
+def _locate_nonfinite(path: Path, layout: _AsciiLayout, row: int) -> str:
+    seen = -1
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if lineno < layout.first_line:
+                continue
+            stripped = line.strip()
+            if not stripped or stripped.startswith("#") or stripped.startswith("//"):
+                continue
+            seen += 1
+            if seen == row:
+                cells = _split(stripped, layout.delimiter)
+                for col, cell in enumerate(cells, start=1):
+                    if _is_number(cell) and not math.isfinite(float(cell)):
+                        return (
+                            f"{path}, line {lineno}, column {col}: {cell!r} is not a "
+                            "finite number; expected a finite value"
+                        )
+    return f"{path}: data row {row + 1} holds a non-finite value"
+
+
+def _read_las(path: Path) -> PointCloud:
+    import laspy
+
+    try:
+        las = laspy.read(path)
+    except Exception as exc:  # laspy raises many types for a broken file
+        raise InputError(f"{path}: not a readable LAS/LAZ file ({exc})") from None
+    n = len(las.points)
+    if n == 0:
+        raise InputError(f"{path}: the LAS file holds no points")
+    xyz = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
+    dims = set(las.point_format.dimension_names)
+    fields: dict[str, np.ndarray] = {}
+    if "intensity" in dims and np.any(las.intensity):
+        fields["intensity"] = np.asarray(las.intensity, dtype=np.float64)
+    if "classification" in dims and np.any(las.classification):
+        fields["classification"] = np.asarray(las.classification, dtype=np.int32)
+    if "point_source_id" in dims and np.any(las.point_source_id):
+        fields["line"] = np.asarray(las.point_source_id, dtype=np.int32)
+    for angle in ("scan_angle", "scan_angle_rank"):
+        if angle in dims and np.any(las[angle]):
+            scale = 0.006 if angle == "scan_angle" else 1.0
+            fields["beam_angle"] = np.asarray(las[angle], dtype=np.float64) * scale
+            break
+    for extra in las.point_format.extra_dimension_names:
+        fields[extra] = np.asarray(las[extra])
+    if "intensity_db" in fields:  # written by us: exact float intensity
+        fields["intensity"] = np.asarray(fields.pop("intensity_db"), dtype=np.float64)
+    crs = None
+    try:
+        parsed = las.header.parse_crs()
+        crs = parsed.to_wkt() if parsed is not None else None
+    except Exception:  # pyproj missing or no CRS: not an error
+        crs = None
+    return PointCloud(xyz, fields, source=str(path), crs=crs)
+
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+
+
+def _read_ply(path: Path) -> PointCloud:
+    with open(path, "rb") as fh:
+        magic = fh.readline().strip()
+        if magic != b"ply":
+            raise InputError(f"{path}, line 1: expected 'ply', got {magic[:20]!r}")
+        fmt = None
+        elements: list[tuple[str, int, list[tuple[str, str]]]] = []
+        lineno = 1
+        while True:
+            raw = fh.readline()
+            lineno += 1
+            if not raw:
+                raise InputError(f"{path}: the PLY header has no end_header line")
+            words = raw.decode("ascii", errors="replace").split()
+            if not words or words[0] in ("comment", "obj_info"):
+                continue
+            if words[0] == "format":
+                fmt = words[1] if len(words) > 1 else ""
+            elif words[0] == "element" and len(words) == 3:
+                elements.append((words[1], int(words[2]), []))
+            elif words[0] == "property":
+                if not elements:
+                    raise InputError(f"{path}, line {lineno}: property before any element")
+                if words[1] == "list":
+                    elements[-1][2].append((words[-1], "list"))
+                elif len(words) == 3 and words[1] in _PLY_TYPES:
+                    elements[-1][2].append((words[2], _PLY_TYPES[words[1]]))
+                else:
+                    raise InputError(f"{path}, line {lineno}: unknown property {raw!r}")
+            elif words[0] == "end_header":
+                break
+        if not elements or elements[0][0] != "vertex":
+            raise InputError(f"{path}: expected the first PLY element to be 'vertex'")
+        _, count, props = elements[0]
+        if any(t == "list" for _, t in props):
+            raise InputError(f"{path}: list properties on vertices are not supported")
+        names = [n for n, _ in props]
+        for axis in "xyz":
+            if axis not in names:
+                raise InputError(f"{path}: the vertex element has no {axis!r} property")
+        if fmt == "ascii":
+            table = np.loadtxt(fh, dtype=np.float64, max_rows=count, ndmin=2)
+            if table.shape[0] != count or table.shape[1] != len(props):
+                raise InputError(
+                    f"{path}: expected {count} vertices of {len(props)} values, "
+                    f"got {table.shape[0]} of {table.shape[1] if table.size else 0}"
+                )
+            data = {n: table[:, i] for i, n in enumerate(names)}
+        elif fmt in ("binary_little_endian", "binary_big_endian"):
+            order = "<" if fmt == "binary_little_endian" else ">"
+            dtype = np.dtype([(n, order + t) for n, t in props])
+            buf = fh.read(dtype.itemsize * count)
+            if len(buf) < dtype.itemsize * count:
+                raise InputError(
+                    f"{path}: truncated: {count} vertices announced, "
+                    f"{len(buf) // dtype.itemsize} present"
+                )
+            rec = np.frombuffer(buf, dtype=dtype, count=count)
+            data = {n: rec[n] for n in names}
+        else:
+            raise InputError(f"{path}: unknown PLY format {fmt!r}")
+    xyz = np.column_stack([data.pop("x"), data.pop("y"), data.pop("z")]).astype(np.float64)
+    fields = {
+        ("intensity" if k in ("scalar_intensity", "intensity") else k): np.asarray(v).copy()
+        for k, v in data.items()
+    }
+    return PointCloud(xyz, fields, source=str(path))
+
+
+def _read_npz(path: Path) -> PointCloud:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except Exception as exc:
+        raise InputError(f"{path}: not a readable NPZ file ({exc})") from None
+    meta: dict[str, Any] = {}
+    if "__meta__" in arrays:
+        meta = json.loads(str(arrays.pop("__meta__")))
+    if "xyz" in arrays:
+        xyz = arrays.pop("xyz")
+    elif {"x", "y", "z"} <= set(arrays):
+        xyz = np.column_stack([arrays.pop("x"), arrays.pop("y"), arrays.pop("z")])
+    else:
+        raise InputError(f"{path}: expected an 'xyz' array or 'x', 'y', 'z' arrays")
+    if xyz.ndim != 2 or xyz.shape[1] != 3:
+        raise InputError(f"{path}: 'xyz' has shape {xyz.shape}, expected (N, 3)")
+    n = xyz.shape[0]
+    fields = {k: v for k, v in arrays.items() if v.shape == (n,)}
+    return PointCloud(
+        xyz.astype(np.float64), fields, source=str(path), crs=meta.get("crs")
+    )
+
+
+# --------------------------------------------------------------------------- writing
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; move it into place only on success."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write(
+    cloud: PointCloud,
+    path: str | os.PathLike[str],
+    *,
+    format: str | None = None,
+    precision: int = 3,
+) -> None:
+    """Write ``cloud`` to ``path`` atomically (a crash never leaves half a file).
+
+    Parameters
+    ----------
+    cloud : PointCloud
+    path : path-like
+    format : {"xyz", "las", "ply", "npz"}, optional
+        Default from the extension (``.laz`` writes compressed LAS).
+    precision : int
+        Decimals for ASCII output and the LAS scale (3 = millimetres).
+    """
+    fmt = format_from_path(path, format)
+    writers: dict[str, Callable[[PointCloud, Path, int], None]] = {
+        "xyz": _write_ascii, "las": _write_las, "ply": _write_ply, "npz": _write_npz,
+    }
+    with atomic_path(path) as tmp:  # the temporary keeps the suffix (.laz compresses)
+        writers[fmt](cloud, tmp, precision)
+
+
+def _write_ascii(cloud: PointCloud, path: Path, precision: int) -> None:
+    names = ["x", "y", "z"] + [k for k in cloud.fields]
+    table = np.column_stack([cloud.xyz] + [np.asarray(v, np.float64) for v in cloud.fields.values()])
+    delim = "," if path.suffix.lower() == ".csv" else " "
+    fmt = [f"%.{precision}f"] * 3 + ["%.6g"] * len(cloud.fields)
+    np.savetxt(path, table, fmt=fmt, delimiter=delim, header=delim.join(names), comments="")
+
+
+def _write_las(cloud: PointCloud, path: Path, precision: int) -> None:
+    import laspy
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    lo = cloud.xyz.min(axis=0) if len(cloud) else np.zeros(3)
+    header.offsets = np.floor(lo)
+    header.scales = np.full(3, 10.0**-precision)
+    extra = {k: v for k, v in cloud.fields.items()
+             if k not in ("intensity", "classification", "line", "beam_angle")}
+    if "intensity" in cloud.fields:
+        extra["intensity_db"] = cloud.fields["intensity"]
+    for name, values in extra.items():
+        kind = np.float64 if np.asarray(values).dtype.kind == "f" else np.int32
+        header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
+    if "intensity" in cloud.fields:
+        las.intensity = np.clip(np.round(cloud.fields["intensity"]), 0, 65535).astype(np.uint16)
+    if "classification" in cloud.fields:
+        las.classification = np.clip(cloud.fields["classification"], 0, 255).astype(np.uint8)
+    if "line" in cloud.fields:
+        las.point_source_id = np.clip(cloud.fields["line"], 0, 65535).astype(np.uint16)
+    if "beam_angle" in cloud.fields:
+        las.scan_angle = np.clip(np.round(cloud.fields["beam_angle"] / 0.006), -30000, 30000)
+    for name, values in extra.items():
+        las[name] = values
+    compressed = str(path).lower().endswith(".laz")
+    with open(path, "wb") as fh:
+        las.write(fh, do_compress=compressed)
+
+
+def _write_ply(cloud: PointCloud, path: Path, precision: int) -> None:
+    props = [("x", "<f8"), ("y", "<f8"), ("z", "<f8")]
+    for name, values in cloud.fields.items():
+        kind = np.asarray(values).dtype
+        props.append((name, "<f8" if kind.kind == "f" else "<i4"))
+    rec = np.empty(len(cloud), dtype=np.dtype(props))
+    rec["x"], rec["y"], rec["z"] = cloud.xyz.T
+    for name, values in cloud.fields.items():
+        rec[name] = values
+    inverse = {"<f8": "double", "<i4": "int"}
+    lines = ["ply", "format binary_little_endian 1.0", "comment written by mbinspect",
+             f"element vertex {len(cloud)}"]
+    lines += [f"property {inverse[t]} {n}" for n, t in props]
+    lines.append("end_header")
+    with open(path, "wb") as fh:
+        fh.write(("\n".join(lines) + "\n").encode("ascii"))
+        fh.write(rec.tobytes())
+
+
+def _write_npz(cloud: PointCloud, path: Path, precision: int) -> None:
+    meta = json.dumps({"crs": cloud.crs, "source": cloud.source})
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, xyz=cloud.xyz, __meta__=np.array(meta), **dict(cloud.fields))
+

@@ -1,0 +1,1106 @@
+"""A ray-cast multibeam survey over a scene whose piles and reefs are known exactly.
+
+Every accuracy figure mbinspect quotes is measured against this module, so it models
+what makes field data hard rather than sprinkling points on shapes:
+
+* **Geometry**: every beam of every ping is a ray from the transducer (draft below the
+  surface, heave, roll and pitch steering it) across the track; the *first* surface it
+  meets makes the sounding, so faces hidden from every line get no points.
+* **Scene**: a seabed height field (plane, slope, sand waves, random roughness), piles
+  as finite capped cylinders (radius, top elevation, tilt and tilt bearing), reefs as
+  unions of oriented boxes (cross-shaped single and double layer, hollow square,
+  triangular) and distractors (boulders as spheres, debris as small boxes).
+* **Errors**: range noise growing with range, beam-pointing noise growing as
+  1/cos(beam angle) (so the error grows with angle and range), per-ping position and
+  heave noise (RTK grade by default), residual roll per ping, an optional refraction
+  bias on the outer beams, grazing-angle dropouts, multipath spikes below the seabed
+  and water-column noise.
+* **Backscatter**: by material (concrete and rock brighter than sediment), with a
+  Lambertian fall-off, a near-specular peak and speckle; exported as ``intensity``
+  = backscatter strength in dB + 100.
+
+Coordinates are local to the scene during ray casting and shifted by the scene's
+``origin`` (a projected easting/northing) on output, as a real export would be.
+
+Examples
+--------
+>>> from mbinspect.simulate import simulate
+>>> sim = simulate("jacket", seed=1, ping_spacing=0.5)   # a sparse, quick survey
+>>> len(sim.truth["piles"])
+4
+>>> sim.cloud.xyz.shape[1]
+3
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError
+from .geometry import (
+    bearing_to_vector,
+    convex_hull,
+    min_area_rectangle,
+    polygon_area,
+    polygon_distance,
+    rectangle_corners,
+)
+from .io import PointCloud
+
+__all__ = [
+    "Seabed",
+    "Pile",
+    "Box",
+    "Reef",
+    "Boulder",
+    "Scene",
+    "Sonar",
+    "Line",
+    "Survey",
+    "Simulation",
+    "JacketOptions",
+    "ReefFieldOptions",
+    "PRESETS",
+    "reef_boxes",
+    "survey",
+    "simulate",
+    "LABELS",
+]
+
+#: Meaning of the per-sounding truth label.
+LABELS = {"seabed": 0, "pile": 1, "reef": 2, "boulder": 3, "debris": 4, "outlier": 5}
+
+#: Backscatter strength at normal incidence (dB) by material.
+MATERIAL_BS = {"sediment": -30.0, "concrete": -12.0, "rock": -16.0, "steel": -10.0}
+
+
+# ---------------------------------------------------------------------------- scene
+
+
+@dataclass(frozen=True)
+class Seabed:
+    """A seabed height field ``z = f(x, y)`` in local coordinates.
+
+    Parameters
+    ----------
+    z0 : float
+        Elevation at the local origin, m (negative below the datum).
+    slope_deg, slope_bearing_deg : float
+        Plane slope and the bearing it dips toward.
+    sand_wave_amplitude, sand_wave_length, sand_wave_bearing_deg : float
+        Crest-to-trough half height (m), wavelength (m) and crest-normal bearing.
+    roughness, roughness_length : float
+        RMS (m) and correlation length (m) of random roughness.
+    extent : float
+        Half-size (m) of the square where roughness is defined (flat beyond).
+    seed : int
+        Seed of the roughness field.
+    """
+
+    z0: float = -21.0
+    slope_deg: float = 0.0
+    slope_bearing_deg: float = 0.0
+    sand_wave_amplitude: float = 0.0
+    sand_wave_length: float = 20.0
+    sand_wave_bearing_deg: float = 0.0
+    roughness: float = 0.03
+    roughness_length: float = 2.0
+    extent: float = 200.0
+    seed: int = 0
+    _grid: np.ndarray = field(init=False, repr=False, compare=False)
+    _cell: float = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        cell = max(self.roughness_length / 4.0, 0.25)
+        n = int(math.ceil(2 * self.extent / cell)) + 2
+        grid = np.zeros((n, n))
+        if self.roughness > 0:
+            from scipy.ndimage import gaussian_filter
+
+            rng = np.random.default_rng(self.seed)
+            grid = gaussian_filter(rng.standard_normal((n, n)), self.roughness_length / cell,
+                                   mode="wrap")
+            grid *= self.roughness / max(grid.std(), 1e-12)
+        object.__setattr__(self, "_grid", grid)
+        object.__setattr__(self, "_cell", cell)
+
+    def _plane_and_waves(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
+        g = math.tan(math.radians(self.slope_deg))
+        sx, sy = -g * bearing_to_vector(self.slope_bearing_deg)
+        k = bearing_to_vector(self.sand_wave_bearing_deg) * (2 * math.pi / self.sand_wave_length)
+        phase = k[0] * x + k[1] * y
+        a = self.sand_wave_amplitude
+        z = self.z0 + sx * x + sy * y + a * np.sin(phase)
+        gx = sx + a * k[0] * np.cos(phase)
+        gy = sy + a * k[1] * np.cos(phase)
+        return z, gx, gy
+
+    def _rough(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
+        c = self._cell
+        n = self._grid.shape[0]
+        u = np.clip((x + self.extent) / c, 0, n - 1.000001)
+        v = np.clip((y + self.extent) / c, 0, n - 1.000001)
+        i, j = u.astype(np.intp), v.astype(np.intp)
+        fu, fv = u - i, v - j
+        g = self._grid
+        z00, z10, z01, z11 = g[i, j], g[i + 1, j], g[i, j + 1], g[i + 1, j + 1]
+        z = (z00 * (1 - fu) + z10 * fu) * (1 - fv) + (z01 * (1 - fu) + z11 * fu) * fv
+        gx = ((z10 - z00) * (1 - fv) + (z11 - z01) * fv) / c
+        gy = ((z01 - z00) * (1 - fu) + (z11 - z10) * fu) / c
+        return z, gx, gy
+
+    def elevation(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+        """Seabed elevation (m) at local ``x, y``."""
+        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        return self._plane_and_waves(x, y)[0] + self._rough(x, y)[0]
+
+    def gradient(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Partial derivatives dz/dx and dz/dy at local ``x, y``."""
+        _, gx1, gy1 = self._plane_and_waves(x, y)
+        _, gx2, gy2 = self._rough(x, y)
+        return gx1 + gx2, gy1 + gy2
+
+    def to_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}
+
+
+@dataclass(frozen=True)
+class Pile:
+    """A capped cylinder: top centre (local x, y, top_z), radius, tilt and its bearing.
+
+    The axis leans toward ``tilt_bearing_deg`` (clockwise from north) by ``tilt_deg``
+    from vertical; the top face is perpendicular to the axis; the pile runs down to
+    ``bottom_z`` (below the seabed).
+    """
+
+    x: float
+    y: float
+    top_z: float
+    radius: float
+    tilt_deg: float = 0.0
+    tilt_bearing_deg: float = 0.0
+    bottom_z: float = -40.0
+    material: str = "concrete"
+
+    @property
+    def axis(self) -> np.ndarray:
+        """Unit axis vector pointing up, shape (3,)."""
+        t = math.radians(self.tilt_deg)
+        h = bearing_to_vector(self.tilt_bearing_deg) * math.sin(t)
+        return np.array([h[0], h[1], math.cos(t)])
+
+
+@dataclass(frozen=True)
+class Box:
+    """An oriented box: base centre (local cx, cy, z0), length along ``bearing_deg``."""
+
+    cx: float
+    cy: float
+    z0: float
+    length: float
+    width: float
+    height: float
+    bearing_deg: float = 0.0
+
+    def corners2d(self) -> np.ndarray:
+        return rectangle_corners(self.cx, self.cy, self.length, self.width, self.bearing_deg)
+
+
+@dataclass(frozen=True)
+class Reef:
+    """An artificial reef: a union of boxes placed at (x, y) with a bearing."""
+
+    id: int
+    kind: str
+    x: float
+    y: float
+    bearing_deg: float
+    boxes: tuple[Box, ...]
+    group: int = 0
+    material: str = "concrete"
+
+
+@dataclass(frozen=True)
+class Boulder:
+    """A sphere partly buried in the seabed (a distractor)."""
+
+    x: float
+    y: float
+    z: float
+    radius: float
+    material: str = "rock"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything a survey can hit; coordinates are local, ``origin`` is added on output."""
+
+    seabed: Seabed
+    piles: tuple[Pile, ...] = ()
+    reefs: tuple[Reef, ...] = ()
+    boulders: tuple[Boulder, ...] = ()
+    debris: tuple[Box, ...] = ()
+    origin: tuple[float, float] = (0.0, 0.0)
+
+
+# ---------------------------------------------------------------------------- survey
+
+
+@dataclass(frozen=True)
+class Sonar:
+    """Multibeam system and error model. All sigmas are 1-sigma; ``noise_scale`` scales them.
+
+    Parameters
+    ----------
+    swath_deg : float
+        Full swath opening angle, degrees (beams from -swath/2 to +swath/2).
+    n_beams : int
+        Beams per ping.
+    spacing : {"equidistant", "equiangular"}
+        Beam distribution across the swath.
+    draft : float
+        Transducer depth below the surface (m).
+    range_sigma, range_sigma_rel : float
+        Range noise: constant part (m) plus a fraction of the range.
+    angle_sigma_deg : float
+        Beam-pointing noise at nadir (deg), growing as 1/cos(beam angle).
+    position_sigma, vertical_sigma : float
+        Per-ping horizontal and vertical positioning noise (m): RTK, heave.
+    attitude_sigma_deg : float
+        Per-ping residual roll error (deg), common to every beam of the ping.
+    refraction_bias_deg : float
+        Systematic depression-angle error at the outermost beam (deg), growing as
+        (angle / max angle)^2 toward the outer beams (sound-speed error).
+    roll_amplitude_deg, pitch_amplitude_deg, heave_amplitude : float
+        Vessel motion (compensated) that steers the beams.
+    spike_rate, water_column_rate : float
+        Fractions of soundings that are multipath spikes (long ranges) and
+        water-column returns (short ranges).
+    noise_scale : float
+        Multiplies every noise sigma and outlier rate (1 = default).
+    """
+
+    swath_deg: float = 120.0
+    n_beams: int = 256
+    spacing: str = "equidistant"
+    draft: float = 0.5
+    range_sigma: float = 0.01
+    range_sigma_rel: float = 0.0005
+    angle_sigma_deg: float = 0.03
+    position_sigma: float = 0.015
+    vertical_sigma: float = 0.02
+    attitude_sigma_deg: float = 0.01
+    refraction_bias_deg: float = 0.0
+    roll_amplitude_deg: float = 2.0
+    pitch_amplitude_deg: float = 1.0
+    heave_amplitude: float = 0.2
+    spike_rate: float = 0.001
+    water_column_rate: float = 0.0005
+    noise_scale: float = 1.0
+
+    def beam_angles(self) -> np.ndarray:
+        """Nominal beam angles (radians, + to starboard), shape (n_beams,)."""
+        half = math.radians(self.swath_deg / 2.0)
+        if self.spacing == "equiangular":
+            return np.linspace(-half, half, self.n_beams)
+        if self.spacing == "equidistant":
+            return np.arctan(np.linspace(-math.tan(half), math.tan(half), self.n_beams))
+        raise ParameterError(
+            f"spacing: {self.spacing!r} is not 'equidistant' or 'equiangular'"
+        )
+
+
+@dataclass(frozen=True)
+class Line:
+    """A survey line: a polyline of local (x, y) vertices sailed at ``ping_spacing``."""
+
+    vertices: tuple[tuple[float, float], ...]
+    ping_spacing: float = 0.1
+    speed: float = 2.0
+
+    def pings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Ping positions (P, 2), headings as unit vectors (P, 2), along-line distance (P,)."""
+        v = np.asarray(self.vertices, dtype=np.float64)
+        seg = np.diff(v, axis=0)
+        seglen = np.hypot(seg[:, 0], seg[:, 1])
+        cum = np.concatenate([[0.0], np.cumsum(seglen)])
+        s = np.arange(0.0, cum[-1] + 1e-9, self.ping_spacing)
+        k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
+        frac = (s - cum[k]) / np.maximum(seglen[k], 1e-12)
+        pos = v[k] + frac[:, None] * seg[k]
+        heading = seg[k] / np.maximum(seglen[k], 1e-12)[:, None]
+        return pos, heading, s
+
+
+@dataclass(frozen=True)
+class Survey:
+    """The lines sailed and the system used."""
+
+    lines: tuple[Line, ...]
+    sonar: Sonar = Sonar()
+
+
+# ---------------------------------------------------------------------------- ray casting
+
+
+def _seabed_hits(seabed: Seabed, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Ray parameter t of the first seabed crossing (Newton on the height field)."""
+    t = (seabed.z0 - o[:, 2]) / d[:, 2]
+    for _ in range(12):
+        p = o + t[:, None] * d
+        z = seabed.elevation(p[:, 0], p[:, 1])
+        gx, gy = seabed.gradient(p[:, 0], p[:, 1])
+        g = p[:, 2] - z
+        dg = d[:, 2] - gx * d[:, 0] - gy * d[:, 1]
+        step = g / np.minimum(dg, -0.05)
+        t = np.maximum(t - step, 0.0)
+        if np.max(np.abs(g)) < 1e-6:
+            break
+    return t
+
+
+def _hit_cylinder(pile: Pile, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a = pile.axis
+    c = np.array([pile.x, pile.y, pile.top_z])
+    length = (pile.top_z - pile.bottom_z) / max(a[2], 1e-6)
+    w = o - c
+    wa, da = w @ a, d @ a
+    wp = w - wa[:, None] * a
+    dp = d - da[:, None] * a
+    A = np.einsum("ij,ij->i", dp, dp)
+    B = 2 * np.einsum("ij,ij->i", wp, dp)
+    C = np.einsum("ij,ij->i", wp, wp) - pile.radius**2
+    disc = B * B - 4 * A * C
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ts = (-B - np.sqrt(disc)) / (2 * A)
+    s = wa + ts * da
+    side_ok = (disc >= 0) & (ts > 0) & (s <= 0) & (s >= -length)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tc = -wa / da
+    rc = wp + tc[:, None] * dp
+    cap_ok = (da < 0) & (tc > 0) & (np.einsum("ij,ij->i", rc, rc) <= pile.radius**2)
+    t = np.where(side_ok, ts, np.inf)
+    t = np.where(cap_ok & (tc < t), tc, t)
+    use_cap = cap_ok & (tc <= t)
+    radial = (wp + ts[:, None] * dp) / pile.radius
+    normal = np.where(use_cap[:, None], a[None, :], radial)
+    return t, normal
+
+
+def _hit_box(box: Box, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = bearing_to_vector(box.bearing_deg)
+    w = np.array([u[1], -u[0]])
+    rot = np.array([[u[0], u[1], 0.0], [w[0], w[1], 0.0], [0.0, 0.0, 1.0]])
+    ol = (o - np.array([box.cx, box.cy, box.z0])) @ rot.T
+    dl = d @ rot.T
+    lo = np.array([-box.length / 2, -box.width / 2, 0.0])
+    hi = np.array([box.length / 2, box.width / 2, box.height])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (lo - ol) / dl
+        t2 = (hi - ol) / dl
+    tmin = np.fmin(t1, t2)
+    tmax = np.fmax(t1, t2)
+    tmin = np.where(np.isnan(tmin), -np.inf, tmin)
+    tmax = np.where(np.isnan(tmax), np.inf, tmax)
+    near_axis = np.argmax(tmin, axis=1)
+    tnear = tmin[np.arange(len(ol)), near_axis]
+    tfar = tmax.min(axis=1)
+    ok = (tnear <= tfar) & (tnear > 0)
+    t = np.where(ok, tnear, np.inf)
+    nl = np.zeros_like(ol)
+    nl[np.arange(len(ol)), near_axis] = -np.sign(dl[np.arange(len(ol)), near_axis])
+    return t, nl @ rot
+
+
+def _hit_sphere(b: Boulder, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    w = o - np.array([b.x, b.y, b.z])
+    bb = np.einsum("ij,ij->i", w, d)
+    cc = np.einsum("ij,ij->i", w, w) - b.radius**2
+    disc = bb * bb - cc
+    with np.errstate(invalid="ignore"):
+        t = -bb - np.sqrt(disc)
+    t = np.where((disc >= 0) & (t > 0), t, np.inf)
+    p = w + np.where(np.isfinite(t), t, 0.0)[:, None] * d
+    return t, p / b.radius
+
+
+@dataclass(frozen=True)
+class _Target:
+    kind: int
+    ident: int
+    material: str
+    bbox: tuple[float, float, float, float]  # xmin, xmax, ymin, ymax
+    top: float
+    hit: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def _targets(scene: Scene) -> list[_Target]:
+    out: list[_Target] = []
+    for i, p in enumerate(scene.piles):
+        a = p.axis
+        length = (p.top_z - p.bottom_z) / max(a[2], 1e-6)
+        bottom = np.array([p.x, p.y]) - a[:2] * length
+        xs = [p.x, bottom[0]]
+        ys = [p.y, bottom[1]]
+        r = p.radius
+        out.append(_Target(LABELS["pile"], i + 1, p.material,
+                           (min(xs) - r, max(xs) + r, min(ys) - r, max(ys) + r),
+                           p.top_z + r, lambda o, d, p=p: _hit_cylinder(p, o, d)))
+    for reef in scene.reefs:
+        for box in reef.boxes:
+            out.append(_box_target(box, LABELS["reef"], reef.id, reef.material))
+    for i, b in enumerate(scene.boulders):
+        out.append(_Target(LABELS["boulder"], i + 1, b.material,
+                           (b.x - b.radius, b.x + b.radius, b.y - b.radius, b.y + b.radius),
+                           b.z + b.radius, lambda o, d, b=b: _hit_sphere(b, o, d)))
+    for i, box in enumerate(scene.debris):
+        out.append(_box_target(box, LABELS["debris"], i + 1, "steel"))
+    return out
+
+
+def _box_target(box: Box, kind: int, ident: int, material: str) -> _Target:
+    c = box.corners2d()
+    lo, hi = c.min(axis=0), c.max(axis=0)
+    return _Target(kind, ident, material, (lo[0], hi[0], lo[1], hi[1]), box.z0 + box.height,
+                   lambda o, d, box=box: _hit_box(box, o, d))
+
+
+def _cast(scene: Scene, targets: list[_Target], o: np.ndarray, d: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """First hit of every ray: t, label, object id, surface normal, material index."""
+    t = _seabed_hits(scene.seabed, o, d)
+    p = o + t[:, None] * d
+    gx, gy = scene.seabed.gradient(p[:, 0], p[:, 1])
+    normal = np.column_stack([-gx, -gy, np.ones_like(gx)])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    label = np.full(len(t), LABELS["seabed"], dtype=np.int8)
+    ident = np.zeros(len(t), dtype=np.int32)
+    materials = ["sediment"]
+    mat = np.zeros(len(t), dtype=np.int8)
+    if targets:
+        ztop = max(tg.top for tg in targets)
+        t_top = np.clip((ztop - o[:, 2]) / d[:, 2], 0.0, None)
+        q = o + np.minimum(t_top, t)[:, None] * d
+        sx0 = np.minimum(q[:, 0], p[:, 0])
+        sx1 = np.maximum(q[:, 0], p[:, 0])
+        sy0 = np.minimum(q[:, 1], p[:, 1])
+        sy1 = np.maximum(q[:, 1], p[:, 1])
+        order = np.argsort(sx0)
+        sx0s = sx0[order]
+        for tg in targets:
+            xmin, xmax, ymin, ymax = tg.bbox
+            stop = np.searchsorted(sx0s, xmax, side="right")
+            cand = order[:stop]
+            cand = cand[(sx1[cand] >= xmin) & (sy0[cand] <= ymax) & (sy1[cand] >= ymin)]
+            if len(cand) == 0:
+                continue
+            tt, nn = tg.hit(o[cand], d[cand])
+            better = tt < t[cand]
+            if not better.any():
+                continue
+            idx = cand[better]
+            t[idx] = tt[better]
+            normal[idx] = nn[better]
+            label[idx] = tg.kind
+            ident[idx] = tg.ident
+            if tg.material not in materials:
+                materials.append(tg.material)
+            mat[idx] = materials.index(tg.material)
+    return t, label, ident, normal, materials
+
+
+def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
+           progress: Callable[[float], None] | None = None
+           ) -> tuple[PointCloud, np.ndarray, np.ndarray]:
+    """Sail ``plan`` over ``scene`` and return the soundings with their truth labels.
+
+    Parameters
+    ----------
+    scene : Scene
+    plan : Survey
+    seed : int, optional
+        Seed of every random error; the same seed gives the same soundings.
+    progress : callable, optional
+        Called with the fraction done (0..1) after each batch of pings.
+
+    Returns
+    -------
+    cloud : PointCloud
+        World coordinates (``scene.origin`` added) with fields ``intensity``,
+        ``beam_angle`` (deg, + starboard), ``line`` (1-based) and ``ping``.
+    label : ndarray of int8, shape (N,)
+        What each sounding hit (:data:`LABELS`).
+    ident : ndarray of int32, shape (N,)
+        Which pile (1-based), reef id, boulder or debris item it hit (0 = none).
+    """
+    sonar = plan.sonar
+    ns = sonar.noise_scale
+    if ns < 0:
+        raise ParameterError(f"noise_scale: {ns} is negative; expected >= 0")
+    rng = np.random.default_rng(seed)
+    beams = sonar.beam_angles()
+    pos_l, head_l, dist_l, line_l = [], [], [], []
+    for k, line in enumerate(plan.lines):
+        pos, head, s = line.pings()
+        pos_l.append(pos)
+        head_l.append(head)
+        dist_l.append(s / line.speed)
+        line_l.append(np.full(len(pos), k + 1, dtype=np.int32))
+    pos = np.concatenate(pos_l)
+    head = np.concatenate(head_l)
+    time = np.concatenate(dist_l)
+    line_id = np.concatenate(line_l)
+    n_ping = len(pos)
+    # vessel motion (known and compensated: it only steers where the beams go)
+    roll = math.radians(sonar.roll_amplitude_deg) * np.sin(2 * np.pi * time / 7.0 + 0.3)
+    pitch = math.radians(sonar.pitch_amplitude_deg) * np.sin(2 * np.pi * time / 5.0 + 1.1)
+    heave = sonar.heave_amplitude * np.sin(2 * np.pi * time / 6.0)
+    # per-ping errors
+    dpos = rng.normal(0.0, 1.0, (n_ping, 3)) * (
+        np.array([sonar.position_sigma, sonar.position_sigma, sonar.vertical_sigma]) * ns
+    )
+    droll = rng.normal(0.0, math.radians(sonar.attitude_sigma_deg) * ns, n_ping)
+    targets = _targets(scene)
+    out_xyz, out_int, out_ang, out_line, out_ping, out_lab, out_id = [], [], [], [], [], [], []
+    batch = max(1, 400_000 // len(beams))
+    for start in range(0, n_ping, batch):
+        sl = slice(start, min(start + batch, n_ping))
+        m = sl.stop - sl.start
+        hd = head[sl]
+        along = np.column_stack([hd, np.zeros(m)])
+        across = np.column_stack([hd[:, 1], -hd[:, 0], np.zeros(m)])  # starboard
+        down = np.array([0.0, 0.0, -1.0])
+        theta = beams[None, :] + roll[sl, None]  # (m, B)
+        dirs = (np.cos(theta)[..., None] * down + np.sin(theta)[..., None] * across[:, None, :]
+                + np.sin(pitch[sl])[:, None, None] * along[:, None, :])
+        dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
+        orig = np.column_stack([pos[sl], -sonar.draft + heave[sl]])
+        o = np.repeat(orig, len(beams), axis=0)
+        d = dirs.reshape(-1, 3)
+        t, label, ident, normal, materials = _cast(scene, targets, o, d)
+        pi = np.repeat(np.arange(sl.start, sl.stop), len(beams))
+        beam = np.tile(beams, m)
+        # detection: grazing incidences return nothing
+        cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
+        keep = rng.random(len(t)) < np.clip((cos_inc - 0.03) / 0.12, 0.0, 1.0)
+        # measurement errors: range and pointing, growing with range and angle
+        sig_r = (sonar.range_sigma + sonar.range_sigma_rel * t) * ns
+        sig_a = math.radians(sonar.angle_sigma_deg) * ns / np.cos(beam)
+        bias = math.radians(sonar.refraction_bias_deg) * (beam / beams.max()) ** 2 * np.sign(beam)
+        dang = rng.normal(0.0, 1.0, len(t)) * sig_a + droll[pi] + bias
+        rng_meas = t + rng.normal(0.0, 1.0, len(t)) * sig_r
+        # derivative of the beam direction with respect to its angle (in the swath plane)
+        th = theta.reshape(-1)
+        dtheta = (-np.sin(th)[:, None] * down
+                  + np.cos(th)[:, None] * np.repeat(across, len(beams), axis=0))
+        xyz = o + rng_meas[:, None] * d + (t * dang)[:, None] * dtheta + dpos[pi]
+        # outliers
+        u = rng.random(len(t))
+        spike = u < sonar.spike_rate * ns
+        wcol = (u >= sonar.spike_rate * ns) & (u < (sonar.spike_rate + sonar.water_column_rate) * ns)
+        xyz[spike] = o[spike] + (t[spike] + rng.uniform(1.0, 6.0, spike.sum()))[:, None] * d[spike]
+        xyz[wcol] = o[wcol] + (t[wcol] * rng.uniform(0.15, 0.9, wcol.sum()))[:, None] * d[wcol]
+        label = np.where(spike | wcol, LABELS["outlier"], label).astype(np.int8)
+        ident = np.where(spike | wcol, 0, ident)
+        # backscatter (dB): material, Lambert, specular peak, speckle
+        mat_bs = np.array([MATERIAL_BS[mm] for mm in materials])
+        inc = np.arccos(cos_inc)
+        bs = (mat_bs[_material_of(label, ident, scene, materials)]
+              + 10 * np.log10(np.maximum(cos_inc**2, 1e-3))
+              + 8.0 * np.exp(-((inc / math.radians(8.0)) ** 2))
+              + rng.normal(0.0, 2.5, len(t)))
+        bs = np.where(label == LABELS["outlier"], rng.normal(-45.0, 5.0, len(t)), bs)
+        keep &= np.isfinite(t)
+        out_xyz.append(xyz[keep])
+        out_int.append(np.round(bs[keep] + 100.0, 1))
+        out_ang.append(np.round(np.degrees(beam[keep]), 3))
+        out_line.append(line_id[pi][keep])
+        out_ping.append(pi[keep].astype(np.int32) + 1)
+        out_lab.append(label[keep])
+        out_id.append(ident[keep])
+        if progress is not None:
+            progress(sl.stop / n_ping)
+    xyz = np.concatenate(out_xyz)
+    xyz[:, 0] += scene.origin[0]
+    xyz[:, 1] += scene.origin[1]
+    cloud = PointCloud(
+        xyz,
+        {
+            "intensity": np.concatenate(out_int),
+            "beam_angle": np.concatenate(out_ang),
+            "line": np.concatenate(out_line),
+            "ping": np.concatenate(out_ping),
+        },
+    )
+    return cloud, np.concatenate(out_lab), np.concatenate(out_id)
+
+
+def _material_of(label: np.ndarray, ident: np.ndarray, scene: Scene,
+                 materials: list[str]) -> np.ndarray:
+    """Index into ``materials`` of what each sounding hit."""
+    out = np.zeros(len(label), dtype=np.intp)
+    kinds = {LABELS["pile"]: [p.material for p in scene.piles],
+             LABELS["boulder"]: [b.material for b in scene.boulders]}
+    reef_mat = {r.id: r.material for r in scene.reefs}
+    for kind, mats in kinds.items():
+        sel = label == kind
+        if sel.any():
+            idx = np.array([materials.index(m) if m in materials else 0 for m in mats])
+            out[sel] = idx[ident[sel] - 1]
+    sel = label == LABELS["reef"]
+    if sel.any():
+        for rid in np.unique(ident[sel]):
+            m = reef_mat.get(int(rid), "concrete")
+            out[sel & (ident == rid)] = materials.index(m) if m in materials else 0
+    sel = label == LABELS["debris"]
+    if sel.any() and "steel" in materials:
+        out[sel] = materials.index("steel")
+    return out
+
+
+
+# ---------------------------------------------------------------------------- reefs
+
+
+def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float
+               ) -> tuple[Box, ...]:
+    """The boxes of one reef design placed at local (x, y) with its base at ``z_base``.
+
+    Designs (after the reef paper's Fig. 4 and common Chinese reef types):
+
+    ``cross2``  double-layer cross: a 3.0 x 0.8 x 1.0 m cross, and on it a
+                2.6 x 0.6 x 1.0 m cross turned 45 degrees (2.0 m tall);
+    ``cross1``  single-layer cross of 3.0 x 0.8 x 1.2 m bars;
+    ``hollow``  hollow square 3.0 x 3.0 m, 0.3 m walls, 1.5 m tall;
+    ``triangle`` three 3.0 x 0.4 x 1.2 m bars in an equilateral triangle.
+    """
+    b = bearing_deg
+    if kind == "cross1":
+        return (Box(x, y, z_base, 3.0, 0.8, 1.2, b), Box(x, y, z_base, 3.0, 0.8, 1.2, b + 90))
+    if kind == "cross2":
+        return (Box(x, y, z_base, 3.0, 0.8, 1.0, b), Box(x, y, z_base, 3.0, 0.8, 1.0, b + 90),
+                Box(x, y, z_base + 1.0, 2.6, 0.6, 1.0, b + 45),
+                Box(x, y, z_base + 1.0, 2.6, 0.6, 1.0, b + 135))
+    if kind == "hollow":
+        out = []
+        for k in range(4):
+            n = bearing_to_vector(b + 90 * k) * 1.35
+            out.append(Box(x + n[0], y + n[1], z_base, 3.0, 0.3, 1.5, b + 90 * k + 90))
+        return tuple(out)
+    if kind == "triangle":
+        out = []
+        r_in = 3.0 / (2 * math.sqrt(3)) - 0.2
+        for k in range(3):
+            n = bearing_to_vector(b + 120 * k) * r_in
+            out.append(Box(x + n[0], y + n[1], z_base, 3.0, 0.4, 1.2, b + 120 * k + 90))
+        return tuple(out)
+    raise ParameterError(
+        f"reef kind {kind!r} is unknown; expected cross2, cross1, hollow or triangle"
+    )
+
+
+def _reef_gap(a: Reef, b: Reef) -> float:
+    return min(polygon_distance(p.corners2d(), q.corners2d()) for p in a.boxes for q in b.boxes)
+
+
+def _reef_truth(reef: Reef, seabed: Seabed, origin: tuple[float, float], cell: float = 0.02
+                ) -> dict[str, Any]:
+    corners = np.concatenate([bx.corners2d() for bx in reef.boxes])
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    gx = np.arange(lo[0] + cell / 2, hi[0], cell)
+    gy = np.arange(lo[1] + cell / 2, hi[1], cell)
+    X, Y = np.meshgrid(gx, gy)
+    pts = np.column_stack([X.ravel(), Y.ravel()])
+    top = np.full(len(pts), -np.inf)
+    for bx in reef.boxes:
+        u = bearing_to_vector(bx.bearing_deg)
+        rel = pts - np.array([bx.cx, bx.cy])
+        inside = (np.abs(rel @ u) <= bx.length / 2) & (np.abs(rel @ np.array([u[1], -u[0]]))
+                                                       <= bx.width / 2)
+        top = np.where(inside, np.maximum(top, bx.z0 + bx.height), top)
+    covered = np.isfinite(top)
+    fp = pts[covered]
+    sea = seabed.elevation(fp[:, 0], fp[:, 1])
+    area = covered.sum() * cell * cell
+    centre = fp.mean(axis=0)
+    z_sea = float(seabed.elevation(centre[0], centre[1]))
+    z_top = float(max(bx.z0 + bx.height for bx in reef.boxes))
+    rect = min_area_rectangle(corners)
+    hull = convex_hull(corners)
+    height = z_top - z_sea
+    return {
+        "id": reef.id, "group": reef.group, "kind": reef.kind,
+        "x": float(centre[0] + origin[0]), "y": float(centre[1] + origin[1]),
+        "z_seabed": z_sea, "z_top": z_top, "height": height, "area": float(area),
+        "length": rect.length, "width": rect.width, "orientation_deg": rect.bearing_deg,
+        "volume": float(np.sum(np.maximum(top[covered] - sea, 0.0)) * cell * cell),
+        "envelope_volume": rect.length * rect.width * height,
+        "bearing_deg": reef.bearing_deg % 360.0,
+        "outline": (hull + np.array(origin)).round(4).tolist(),
+        "boxes": [dict(dataclasses.asdict(bx), cx=bx.cx + origin[0], cy=bx.cy + origin[1])
+                  for bx in reef.boxes],
+    }
+
+
+# ---------------------------------------------------------------------------- presets
+
+
+@dataclass(frozen=True)
+class JacketOptions:
+    """The ``jacket`` preset, after the pile paper: a four-pile jacket, 22 m sides.
+
+    Every field can be overridden (``simulate("jacket", radius=1.0)`` or
+    ``mbinspect simulate jacket --radius 1.0``). Lengths in m, angles in degrees.
+    """
+
+    side: float = 22.0  #: design side of the square of piles
+    radius: float = 0.75  #: pile radius
+    top: float = -16.0  #: design top elevation
+    seabed: float = -21.0  #: seabed elevation at the jacket centre
+    slope_deg: float = 0.5  #: seabed slope
+    sand_wave_amplitude: float = 0.0  #: sand wave half height
+    roughness: float = 0.03  #: seabed roughness RMS
+    position_scatter: float = 0.03  #: as-built deviation of each pile from design (1 sigma)
+    top_scatter: float = 0.02  #: as-built deviation of each top elevation (1 sigma)
+    tilt_max_deg: float = 1.0  #: tilts drawn uniformly in [0, tilt_max]
+    lines: str = "west,east,south,north,tops"  #: which survey lines to sail
+    line_offset: float = 12.5  #: distance of the '#' lines outside the piles
+    line_extent: float = 36.0  #: half-length of every line from the jacket centre
+    ping_spacing: float = 0.05  #: along-track ping spacing
+    boulders: int = 2  #: distractor boulders near the jacket
+    origin_x: float = 512300.0  #: easting of the jacket centre
+    origin_y: float = 3456700.0  #: northing of the jacket centre
+
+
+@dataclass(frozen=True)
+class ReefFieldOptions:
+    """The ``reef-field`` preset, after the reef paper: groups of 25 reefs at -17.3 m.
+
+    ``groups`` lists the reef kind of each group (``cross2``, ``cross1``, ``hollow``,
+    ``triangle`` or ``mixed``). Lengths in m, angles in degrees.
+    """
+
+    groups: str = "cross2,cross2,cross2,cross1"  #: reef kind per group
+    per_group: int = 25  #: reefs per group (a square grid, jittered)
+    grid_spacing: float = 6.0  #: nominal spacing of reefs in a group
+    jitter: float = 0.8  #: placement scatter of each reef (1 sigma)
+    group_spacing: float = 55.0  #: spacing of group centres
+    seabed: float = -17.3  #: seabed elevation at the field centre
+    slope_deg: float = 0.3  #: seabed slope
+    sand_wave_amplitude: float = 0.0  #: sand wave half height
+    sand_wave_length: float = 25.0  #: sand wave length
+    roughness: float = 0.04  #: seabed roughness RMS
+    close_pairs: int = 6  #: pairs moved to 0.3-0.9 m apart
+    touching_pairs: int = 0  #: pairs moved until they touch
+    boulders: int = 8  #: distractor boulders (r 0.25-0.5 m)
+    debris: int = 4  #: distractor debris items (< 1 m^2)
+    line_spacing: float = 22.0  #: spacing of the parallel survey lines
+    ping_spacing: float = 0.55  #: along-track ping spacing
+    origin_x: float = 402500.0  #: easting of the field centre
+    origin_y: float = 3372800.0  #: northing of the field centre
+
+
+#: Preset name -> (options class, default sonar).
+PRESETS: dict[str, tuple[type, Sonar]] = {
+    "jacket": (JacketOptions, Sonar()),
+    "reef-field": (ReefFieldOptions, Sonar(n_beams=256)),
+}
+
+
+def _jacket(opt: JacketOptions, rng: np.random.Generator, sonar: Sonar
+            ) -> tuple[Scene, Survey, dict[str, Any]]:
+    h = opt.side / 2
+    seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
+                    sand_wave_amplitude=opt.sand_wave_amplitude, roughness=opt.roughness,
+                    extent=opt.line_extent + opt.line_offset + 60, seed=int(rng.integers(2**31)))
+    design = [(-h, -h), (h, -h), (-h, h), (h, h)]  # ids 1..4: SW, SE, NW, NE
+    piles = []
+    for dx, dy in design:
+        off = rng.normal(0.0, opt.position_scatter, 2)
+        piles.append(Pile(dx + off[0], dy + off[1], opt.top + rng.normal(0, opt.top_scatter),
+                          opt.radius, tilt_deg=rng.uniform(0, opt.tilt_max_deg),
+                          tilt_bearing_deg=rng.uniform(0, 360), bottom_z=opt.seabed - 15))
+    boulders = []
+    for _ in range(opt.boulders):
+        while True:
+            p = rng.uniform(-h - 8, h + 8, 2)
+            if min(math.hypot(p[0] - q.x, p[1] - q.y) for q in piles) > 4:
+                break
+        r = rng.uniform(0.3, 0.6)
+        boulders.append(Boulder(p[0], p[1], float(seabed.elevation(p[0], p[1])) - 0.3 * r, r))
+    e, o = opt.line_extent, h + opt.line_offset
+    catalogue = {
+        "west": [((-o, -e), (-o, e))], "east": [((o, e), (o, -e))],
+        "south": [((e, -o), (-e, -o))], "north": [((-e, o), (e, o))],
+        "tops": [((-h, -e), (-h, e)), ((h, e), (h, -e))],
+    }
+    lines = []
+    for name in [s.strip() for s in opt.lines.split(",") if s.strip()]:
+        if name not in catalogue:
+            raise ParameterError(
+                f"lines: {name!r} is not one of {', '.join(catalogue)}"
+            )
+        lines += [Line(v, ping_spacing=opt.ping_spacing) for v in catalogue[name]]
+    scene = Scene(seabed, tuple(piles), boulders=tuple(boulders),
+                  origin=(opt.origin_x, opt.origin_y))
+    extra = {"design": [{"id": i + 1, "x": dx + opt.origin_x, "y": dy + opt.origin_y}
+                        for i, (dx, dy) in enumerate(design)]}
+    return scene, Survey(tuple(lines), sonar), extra
+
+
+def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
+                ) -> tuple[Scene, Survey, dict[str, Any]]:
+    kinds = [s.strip() for s in opt.groups.split(",") if s.strip()]
+    if not kinds:
+        raise ParameterError("groups: no reef group given; expected e.g. cross2,cross1")
+    ng = len(kinds)
+    cols = int(math.ceil(math.sqrt(ng)))
+    rows = int(math.ceil(ng / cols))
+    seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
+                    sand_wave_amplitude=opt.sand_wave_amplitude,
+                    sand_wave_length=opt.sand_wave_length,
+                    sand_wave_bearing_deg=rng.uniform(0, 180), roughness=opt.roughness,
+                    extent=opt.group_spacing * max(rows, cols) / 2 + 90,
+                    seed=int(rng.integers(2**31)))
+    side = int(math.ceil(math.sqrt(opt.per_group)))
+    reefs: list[Reef] = []
+
+    def make(rid: int, kind: str, x: float, y: float, b: float, g: int) -> Reef:
+        z = float(seabed.elevation(x, y)) - 0.1
+        return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z), group=g)
+
+    for g, kind in enumerate(kinds):
+        gx = (g % cols - (cols - 1) / 2) * opt.group_spacing
+        gy = ((rows - 1) / 2 - g // cols) * opt.group_spacing
+        for k in range(opt.per_group):
+            nominal = (gx + (k % side - (side - 1) / 2) * opt.grid_spacing,
+                       gy + (k // side - (side - 1) / 2) * opt.grid_spacing)
+            kk = kind if kind != "mixed" else ("cross2", "cross1", "hollow", "triangle")[k % 4]
+            for _ in range(200):
+                x, y = np.asarray(nominal) + rng.normal(0.0, opt.jitter, 2)
+                cand = make(len(reefs) + 1, kk, x, y, rng.uniform(0, 90), g + 1)
+                if all(_reef_gap(cand, r) > 1.2 for r in reefs
+                       if math.hypot(r.x - x, r.y - y) < 8):
+                    break
+            reefs.append(cand)
+    # bring chosen neighbour pairs close together or into contact
+    targets = [(rng.uniform(0.3, 0.9)) for _ in range(opt.close_pairs)]
+    targets += [0.0] * opt.touching_pairs
+    moved: set[int] = set()
+    for target in targets:
+        order = rng.permutation(len(reefs))
+        for i in order:
+            if i in moved:
+                continue
+            a = reefs[i]
+            near = [j for j in range(len(reefs)) if j != i and j not in moved
+                    and reefs[j].group == a.group
+                    and math.hypot(reefs[j].x - a.x, reefs[j].y - a.y) < opt.grid_spacing * 1.5]
+            if not near:
+                continue
+            j = min(near, key=lambda j: math.hypot(reefs[j].x - a.x, reefs[j].y - a.y))
+            b = reefs[j]
+            v = np.array([a.x - b.x, a.y - b.y])
+            dist = float(np.hypot(*v))
+            v /= dist
+
+            def at(s: float, b: Reef = b, v: np.ndarray = v) -> Reef:
+                return make(b.id, b.kind, b.x + s * v[0], b.y + s * v[1], b.bearing_deg, b.group)
+
+            lo, hi = 0.0, dist
+            for _ in range(40):
+                mid = (lo + hi) / 2
+                if _reef_gap(a, at(mid)) > target:
+                    lo = mid
+                else:
+                    hi = mid
+            new = at(lo if target > 0 else hi)
+            others = [r for k2, r in enumerate(reefs) if k2 not in (i, j)
+                      and math.hypot(r.x - new.x, r.y - new.y) < 8]
+            if all(_reef_gap(new, r) > 1.0 for r in others):
+                reefs[j] = new
+                moved.update((i, j))
+                break
+    xy = np.array([[r.x, r.y] for r in reefs])
+    lo, hi = xy.min(axis=0) - 12, xy.max(axis=0) + 12
+    boulders: list[Boulder] = []
+    debris: list[Box] = []
+    for n_items, is_boulder in ((opt.boulders, True), (opt.debris, False)):
+        for _ in range(n_items):
+            for _ in range(500):
+                p = rng.uniform(lo, hi)
+                if np.min(np.hypot(*(xy - p).T)) > 4.5:
+                    break
+            z = float(seabed.elevation(p[0], p[1]))
+            if is_boulder:
+                r = rng.uniform(0.25, 0.5)
+                boulders.append(Boulder(p[0], p[1], z - 0.3 * r, r))
+            else:
+                debris.append(Box(p[0], p[1], z - 0.05, rng.uniform(0.5, 1.2),
+                                  rng.uniform(0.3, 0.6), rng.uniform(0.2, 0.5),
+                                  rng.uniform(0, 180)))
+    lines = []
+    y0, y1 = lo[1] - 10, hi[1] + 10
+    n_lines = int(math.ceil((y1 - y0) / opt.line_spacing)) + 1
+    for k in range(n_lines):
+        y = y0 + k * opt.line_spacing
+        xs = (lo[0] - 15, hi[0] + 15) if k % 2 == 0 else (hi[0] + 15, lo[0] - 15)
+        lines.append(Line(((xs[0], y), (xs[1], y)), ping_spacing=opt.ping_spacing))
+    scene = Scene(seabed, reefs=tuple(reefs), boulders=tuple(boulders), debris=tuple(debris),
+                  origin=(opt.origin_x, opt.origin_y))
+    return scene, Survey(tuple(lines), sonar), {}
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """A simulated survey: the soundings, what each one hit, and the exact truth.
+
+    Attributes
+    ----------
+    cloud : PointCloud
+    labels, ident : ndarray
+        Per-sounding truth (see :func:`survey`).
+    truth : dict
+        JSON-ready truth: piles and spacings, reefs and groups, distractors, seabed.
+    scene : Scene
+    plan : Survey
+    """
+
+    cloud: PointCloud
+    labels: np.ndarray
+    ident: np.ndarray
+    truth: dict[str, Any]
+    scene: Scene
+    plan: Survey
+
+    def reference_rows(self, *, sigma: float = 0.15, seed: int = 0) -> list[tuple[float, float, int]]:
+        """Reef positions as a surveyor would digitise them (x, y, id), with ``sigma`` m scatter."""
+        rng = np.random.default_rng(seed)
+        return [(r["x"] + rng.normal(0, sigma), r["y"] + rng.normal(0, sigma), r["id"])
+                for r in self.truth["reefs"]]
+
+
+def _option_names(preset: str) -> tuple[type, Sonar]:
+    if preset not in PRESETS:
+        raise ParameterError(f"preset {preset!r} is unknown; expected one of {', '.join(PRESETS)}")
+    return PRESETS[preset]
+
+
+def simulate(preset: str, *, seed: int = 0,
+             progress: Callable[[float], None] | None = None, **overrides: Any) -> Simulation:
+    """Simulate a preset survey with exact truth.
+
+    Parameters
+    ----------
+    preset : {"jacket", "reef-field"}
+    seed : int
+        Seeds the scene (as-built deviations, reef placement) and, independently,
+        the measurement errors. The same seed gives the same soundings and truth.
+    progress : callable, optional
+        Called with the fraction of pings done.
+    **overrides
+        Any field of the preset's options (:class:`JacketOptions`,
+        :class:`ReefFieldOptions`) or of :class:`Sonar`.
+
+    Returns
+    -------
+    Simulation
+    """
+    opt_cls, sonar = _option_names(preset)
+    opt_fields = {f.name for f in dataclasses.fields(opt_cls)}
+    sonar_fields = {f.name for f in dataclasses.fields(Sonar)}
+    unknown = set(overrides) - opt_fields - sonar_fields
+    if unknown:
+        raise ParameterError(
+            f"{preset}: unknown option {sorted(unknown)[0]!r}; "
+            f"expected one of {', '.join(sorted(opt_fields | sonar_fields))}"
+        )
+    opt = opt_cls(**{k: v for k, v in overrides.items() if k in opt_fields})
+    sonar = dataclasses.replace(sonar, **{k: v for k, v in overrides.items() if k in sonar_fields})
+    _check_options(opt, sonar)
+    scene_seed, noise_seed = np.random.SeedSequence(seed).spawn(2)
+    builder = _jacket if preset == "jacket" else _reef_field
+    scene, plan, extra = builder(opt, np.random.default_rng(scene_seed), sonar)  # type: ignore[arg-type]
+    cloud, labels, ident = survey(scene, plan, seed=int(noise_seed.generate_state(1)[0]),
+                                  progress=progress)
+    truth = _truth(preset, seed, opt, sonar, scene, labels, extra)
+    return Simulation(cloud, labels, ident, truth, scene, plan)
+
+
+def _check_options(opt: Any, sonar: Sonar) -> None:
+    positive = {"side", "radius", "ping_spacing", "grid_spacing", "group_spacing",
+                "line_spacing", "per_group", "line_extent", "swath_deg", "n_beams"}
+    for obj in (opt, sonar):
+        for f in dataclasses.fields(obj):
+            v = getattr(obj, f.name)
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                if not math.isfinite(v):
+                    raise ParameterError(f"--{f.name.replace('_', '-')}: {v} is not finite")
+                if f.name in positive and v <= 0:
+                    raise ParameterError(
+                        f"--{f.name.replace('_', '-')}: {v} must be positive"
+                    )
+                if v < 0 and f.name not in ("top", "seabed", "origin_x", "origin_y"):
+                    raise ParameterError(
+                        f"--{f.name.replace('_', '-')}: {v} is negative; expected >= 0"
+                    )
+    if sonar.swath_deg >= 170:
+        raise ParameterError(f"--swath-deg: {sonar.swath_deg} must be below 170")
+
+
+def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels: np.ndarray,
+           extra: dict[str, Any]) -> dict[str, Any]:
+    ox, oy = scene.origin
+    piles = []
+    for i, p in enumerate(scene.piles):
+        piles.append({"id": i + 1, "x": p.x + ox, "y": p.y + oy, "z": p.top_z,
+                      "radius": p.radius, "tilt_deg": p.tilt_deg,
+                      "tilt_azimuth_deg": p.tilt_bearing_deg % 360.0,
+                      "seabed_z": float(scene.seabed.elevation(p.x, p.y))})
+    spacings = [{"a": a["id"], "b": b["id"],
+                 "distance": math.hypot(a["x"] - b["x"], a["y"] - b["y"])}
+                for a, b in itertools.combinations(piles, 2)]
+    reefs = [_reef_truth(r, scene.seabed, scene.origin) for r in scene.reefs]
+    groups = []
+    for g in sorted({r.group for r in scene.reefs}):
+        members = [t for t in reefs if t["group"] == g]
+        outline = convex_hull(np.concatenate([np.asarray(t["outline"]) for t in members]))
+        groups.append({"id": g, "count": len(members),
+                       "x": float(np.mean([t["x"] for t in members])),
+                       "y": float(np.mean([t["y"] for t in members])),
+                       "area": polygon_area(outline), "kind": members[0]["kind"]})
+    close = []
+    for a, b in itertools.combinations(scene.reefs, 2):
+        if math.hypot(a.x - b.x, a.y - b.y) < 6:
+            gap = _reef_gap(a, b)
+            if gap < 1.0:
+                close.append({"a": a.id, "b": b.id, "gap": gap})
+    distractors = (
+        [{"kind": "boulder", "x": b.x + ox, "y": b.y + oy, "z_top": b.z + b.radius,
+          "radius": b.radius} for b in scene.boulders]
+        + [{"kind": "debris", "x": d.cx + ox, "y": d.cy + oy, "z_top": d.z0 + d.height,
+            "length": d.length, "width": d.width} for d in scene.debris]
+    )
+    counts = {name: int(np.sum(labels == code)) for name, code in LABELS.items()}
+    return {
+        "preset": preset, "seed": seed,
+        "options": dataclasses.asdict(opt), "sonar": dataclasses.asdict(sonar),
+        "origin": [ox, oy], "n_soundings": int(len(labels)), "counts": counts,
+        "seabed": scene.seabed.to_dict(),
+        "piles": piles, "spacings": spacings, **extra,
+        "reefs": reefs, "groups": groups, "close_pairs": close, "distractors": distractors,
+    }
+
+
+def option_fields(preset: str) -> list[dataclasses.Field[Any]]:
+    """Every overridable option of a preset (its own fields, then the sonar's)."""
+    opt_cls, _ = _option_names(preset)
+    return list(dataclasses.fields(opt_cls)) + list(dataclasses.fields(Sonar))
+
