@@ -55,6 +55,12 @@ __all__ = [
     "parse_columns",
     "atomic_path",
     "check_points",
+    "CloudSummary",
+    "describe",
+    "to_jsonable",
+    "output_dir",
+    "write_json",
+    "write_table",
 ]
 
 #: Recognised formats and the extensions that select them.
@@ -670,6 +676,12 @@ def _read_npz(path: Path) -> PointCloud:
 # --------------------------------------------------------------------------- writing
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; move it into place only on success."""
@@ -677,6 +689,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
     os.close(fd)
+    os.chmod(tmp, 0o666 & ~_umask())
     try:
         yield Path(tmp)
         os.replace(tmp, target)
@@ -772,5 +785,170 @@ def _write_ply(cloud: PointCloud, path: Path, precision: int) -> None:
 def _write_npz(cloud: PointCloud, path: Path, precision: int) -> None:
     meta = json.dumps({"crs": cloud.crs, "source": cloud.source})
     with open(path, "wb") as fh:
-        np.savez_compressed(fh, xyz=cloud.xyz, __meta__=np.array(meta), **dict(cloud.fields))
+        arrays: dict[str, Any] = {"xyz": cloud.xyz, "__meta__": np.array(meta), **cloud.fields}
+        np.savez_compressed(fh, **arrays)
 
+
+
+@dataclass(frozen=True)
+class CloudSummary:
+    """What ``mbinspect info`` prints: counts, extent, fields and density.
+
+    Attributes
+    ----------
+    n_points : int
+    bounds_min, bounds_max : tuple of float
+        Corners (x, y, z) in metres.
+    fields : tuple of str
+    area : float
+        Covered area (m^2): occupied cells of a ``cell`` m grid.
+    density : float
+        Mean points per covered m^2.
+    spacing : float
+        Median 2-D distance to the nearest neighbour (m), on up to 200 000 points.
+    """
+
+    source: str | None
+    n_points: int
+    bounds_min: tuple[float, float, float]
+    bounds_max: tuple[float, float, float]
+    fields: tuple[str, ...]
+    area: float
+    density: float
+    spacing: float
+    cell: float
+    crs: str | None
+    z_convention: str
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses_asdict(self)
+        d["z_range"] = [self.bounds_min[2], self.bounds_max[2]]
+        return d
+
+
+def dataclasses_asdict(obj: Any) -> dict[str, Any]:
+    """``dataclasses.asdict`` with numpy scalars and arrays made JSON-ready."""
+    import dataclasses
+
+    return to_jsonable(dataclasses.asdict(obj))
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert numpy scalars/arrays (nested in dicts, lists, tuples) to plain Python."""
+    if isinstance(value, dict):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        f = float(value)
+        return f if math.isfinite(f) else None
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def describe(cloud: PointCloud, *, cell: float = 1.0, seed: int = 0) -> CloudSummary:
+    """Summarise a cloud like ``pdal info`` or ``lasinfo`` do.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+    cell : float
+        Grid cell (m) used to measure the covered area; default 1.0.
+    seed : int
+        Seed of the subsample used for the nearest-neighbour spacing.
+    """
+    from scipy.spatial import cKDTree
+
+    if cell <= 0:
+        raise ParameterError(f"cell: {cell} must be positive")
+    lo, hi = cloud.bounds()
+    ij = np.floor((cloud.xyz[:, :2] - lo[:2]) / cell).astype(np.int64)
+    keys = ij[:, 0] * (int((hi[1] - lo[1]) / cell) + 2) + ij[:, 1]
+    area = float(len(np.unique(keys))) * cell * cell
+    xy = cloud.xyz[:, :2]
+    if len(xy) > 200_000:
+        xy = xy[np.random.default_rng(seed).choice(len(xy), 200_000, replace=False)]
+    spacing = float("nan")
+    if len(xy) > 1:
+        d, _ = cKDTree(xy - lo[:2]).query(xy - lo[:2], k=2)
+        spacing = float(np.median(d[:, 1]))
+    return CloudSummary(
+        source=cloud.source, n_points=len(cloud),
+        bounds_min=tuple(float(v) for v in lo), bounds_max=tuple(float(v) for v in hi),  # type: ignore[arg-type]
+        fields=tuple(cloud.fields), area=area, density=len(cloud) / area, spacing=spacing,
+        cell=cell, crs=cloud.crs, z_convention=cloud.z_convention,
+    )
+
+
+@contextmanager
+def output_dir(
+    path: str | os.PathLike[str], *, overwrite: bool = False,
+    inputs: Sequence[str | os.PathLike[str]] = (),
+) -> Iterator[Path]:
+    """Yield a fresh temporary folder that replaces ``path`` only when the block succeeds.
+
+    Refuses an existing, non-empty ``path`` unless ``overwrite``, and never replaces a
+    folder that holds one of ``inputs``.
+    """
+    import shutil
+
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise FileAccessError(f"--out {target}: exists and is not a folder")
+    if target.exists() and any(target.iterdir()):
+        if not overwrite:
+            raise FileAccessError(
+                f"--out {target}: the folder exists and is not empty; "
+                "pass --overwrite to replace it"
+            )
+        for inp in inputs:
+            if Path(target).resolve() in Path(inp).resolve().parents:
+                raise FileAccessError(
+                    f"--out {target}: holds the input {inp}; choose another output folder"
+                )
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    os.chmod(tmp, 0o777 & ~_umask())
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    old = None
+    if target.exists():
+        old = target.with_name(f".{target.name}.old-{os.getpid()}")
+        os.replace(target, old)
+    os.replace(tmp, target)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def write_json(obj: Any, path: str | os.PathLike[str]) -> None:
+    """Write ``obj`` as indented JSON, atomically, with numpy values made plain."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(to_jsonable(obj), indent=2) + "\n", encoding="utf-8")
+
+
+def write_table(rows: Sequence[Mapping[str, Any]], path: str | os.PathLike[str],
+                columns: Sequence[str] | None = None) -> None:
+    """Write a list of flat dicts as CSV (atomically); lists and dicts are left out."""
+    import csv
+
+    cols = list(columns) if columns is not None else (
+        [k for k, v in rows[0].items() if not isinstance(v, (list, dict))] if rows else [])
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for row in rows:
+            vals = []
+            for c in cols:
+                v = to_jsonable(row.get(c))
+                vals.append("" if v is None else (f"{v:.4f}" if isinstance(v, float) else v))
+            w.writerow(vals)

@@ -452,24 +452,35 @@ def _targets(scene: Scene) -> list[_Target]:
         r = p.radius
         out.append(_Target(LABELS["pile"], i + 1, p.material,
                            (min(xs) - r, max(xs) + r, min(ys) - r, max(ys) + r),
-                           p.top_z + r, lambda o, d, p=p: _hit_cylinder(p, o, d)))
+                           p.top_z + r, _bind(_hit_cylinder, p)))
     for reef in scene.reefs:
         for box in reef.boxes:
             out.append(_box_target(box, LABELS["reef"], reef.id, reef.material))
     for i, b in enumerate(scene.boulders):
         out.append(_Target(LABELS["boulder"], i + 1, b.material,
                            (b.x - b.radius, b.x + b.radius, b.y - b.radius, b.y + b.radius),
-                           b.z + b.radius, lambda o, d, b=b: _hit_sphere(b, o, d)))
+                           b.z + b.radius, _bind(_hit_sphere, b)))
     for i, box in enumerate(scene.debris):
         out.append(_box_target(box, LABELS["debris"], i + 1, "steel"))
     return out
+
+
+_HitFn = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def _bind(fn: Callable[[Any, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
+          obj: Any) -> _HitFn:
+    def hit(o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return fn(obj, o, d)
+
+    return hit
 
 
 def _box_target(box: Box, kind: int, ident: int, material: str) -> _Target:
     c = box.corners2d()
     lo, hi = c.min(axis=0), c.max(axis=0)
     return _Target(kind, ident, material, (lo[0], hi[0], lo[1], hi[1]), box.z0 + box.height,
-                   lambda o, d, box=box: _hit_box(box, o, d))
+                   _bind(_hit_box, box))
 
 
 def _cast(scene: Scene, targets: list[_Target], o: np.ndarray, d: np.ndarray
@@ -1027,7 +1038,7 @@ def simulate(preset: str, *, seed: int = 0,
     _check_options(opt, sonar)
     scene_seed, noise_seed = np.random.SeedSequence(seed).spawn(2)
     builder = _jacket if preset == "jacket" else _reef_field
-    scene, plan, extra = builder(opt, np.random.default_rng(scene_seed), sonar)  # type: ignore[arg-type]
+    scene, plan, extra = builder(opt, np.random.default_rng(scene_seed), sonar)
     cloud, labels, ident = survey(scene, plan, seed=int(noise_seed.generate_state(1)[0]),
                                   progress=progress)
     truth = _truth(preset, seed, opt, sonar, scene, labels, extra)

@@ -1,0 +1,284 @@
+"""The ``mbinspect`` command line: a thin layer over the library.
+
+Each subcommand parses its options, calls one library function and writes that
+function's result. A user's mistake is printed as one line on stderr with a non-zero
+exit status, never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from . import __version__
+from .errors import MBInspectError, ParameterError
+
+__all__ = ["main"]
+
+EXIT_USER = 2
+EXIT_INTERRUPT = 130
+
+
+class _UsageError(MBInspectError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (raised, so ``main`` prints them like any other)."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")
+
+
+class Reporter:
+    """Progress and messages on stderr, silenced by ``-q``, detailed by ``-v``."""
+
+    def __init__(self, verbosity: int = 0, stream: Any = None) -> None:
+        self.verbosity = verbosity
+        self.stream = stream if stream is not None else sys.stderr
+        self._t0 = time.perf_counter()
+        self._last = -1.0
+
+    def info(self, message: str) -> None:
+        if self.verbosity >= 0:
+            print(message, file=self.stream, flush=True)
+
+    def debug(self, message: str) -> None:
+        if self.verbosity > 0:
+            print(f"[{time.perf_counter() - self._t0:7.2f} s] {message}", file=self.stream,
+                  flush=True)
+
+    def progress(self, label: str) -> Callable[[float], None]:
+        """A callback that shows ``label NN %`` for work of more than a second or two."""
+        start = time.perf_counter()
+        self._last = -1.0
+        tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+
+        def update(fraction: float) -> None:
+            if self.verbosity < 0 or time.perf_counter() - start < 1.5 and fraction < 1:
+                return
+            pct = int(100 * fraction)
+            step = 1 if tty else 25
+            if pct // step == self._last // step and fraction < 1:
+                return
+            self._last = pct
+            end = "\r" if tty and fraction < 1 else "\n"
+            print(f"{label}: {pct:3d} %", end=end, file=self.stream, flush=True)
+
+        return update
+
+
+# ----------------------------------------------------------------------------- input options
+
+
+def _add_input(p: argparse.ArgumentParser) -> None:
+    p.add_argument("input", help="point cloud file (.xyz .txt .csv .las .laz .ply .npz)")
+    g = p.add_argument_group("reading")
+    g.add_argument("--format", choices=["xyz", "las", "ply", "npz"],
+                   help="file format when the extension does not say it")
+    g.add_argument("--columns", metavar="MAP",
+                   help="ASCII columns, e.g. x,y,z,intensity or x,y,-,z ('-' skips)")
+    g.add_argument("--delimiter", metavar="D",
+                   help="ASCII delimiter: ',' ';' tab or space (default: sniffed)")
+    g.add_argument("--depth-positive", action="store_true",
+                   help="z in the file is depth, positive down (it is negated)")
+
+
+def _read_input(args: argparse.Namespace, rep: Reporter) -> Any:
+    from .io import read
+
+    t = time.perf_counter()
+    cloud = read(args.input, format=args.format, columns=args.columns,
+                 depth_positive=args.depth_positive, delimiter=args.delimiter)
+    rep.debug(f"read {len(cloud):,} points from {args.input} in {time.perf_counter() - t:.2f} s")
+    return cloud
+
+
+# ----------------------------------------------------------------------------- info
+
+
+def _cmd_info(args: argparse.Namespace, rep: Reporter) -> int:
+    from .io import describe
+
+    summary = describe(_read_input(args, rep), cell=args.cell)
+    d = summary.to_dict()
+    if args.json:
+        print(json.dumps(d, indent=2))
+        return 0
+    lo, hi = summary.bounds_min, summary.bounds_max
+    lines = [
+        f"file        {summary.source}",
+        f"points      {summary.n_points:,}",
+        f"x range     {lo[0]:.3f} .. {hi[0]:.3f}  ({hi[0] - lo[0]:.2f} m)",
+        f"y range     {lo[1]:.3f} .. {hi[1]:.3f}  ({hi[1] - lo[1]:.2f} m)",
+        f"z range     {lo[2]:.3f} .. {hi[2]:.3f}  ({hi[2] - lo[2]:.2f} m, elevation, up)",
+        f"fields      {', '.join(summary.fields) or '(none)'}",
+        f"area        {summary.area:,.0f} m^2 covered ({summary.cell:g} m cells)",
+        f"density     {summary.density:.1f} pts/m^2",
+        f"spacing     {summary.spacing:.3f} m (median nearest neighbour, plan)",
+    ]
+    if summary.crs:
+        lines.append(f"crs         {summary.crs[:70]}")
+    print("\n".join(lines))
+    return 0
+
+
+# ----------------------------------------------------------------------------- simulate
+
+
+def _add_simulate_options(p: argparse.ArgumentParser) -> None:
+    from .simulate import PRESETS, option_fields
+
+    seen: set[str] = set()
+    for preset in PRESETS:
+        g = p.add_argument_group(f"{preset} options (defaults in 'mbinspect simulate "
+                                 f"{preset} --show-options')")
+        for f in option_fields(preset):
+            if f.name in seen:
+                continue
+            seen.add(f.name)
+            flag = "--" + f.name.replace("_", "-")
+            kind = type(f.default)
+            if kind is bool:
+                g.add_argument(flag, dest=f"opt_{f.name}", type=_parse_bool, metavar="BOOL")
+            else:
+                g.add_argument(flag, dest=f"opt_{f.name}", type=kind, metavar=kind.__name__.upper())
+
+
+def _parse_bool(text: str) -> bool:
+    if text.lower() in ("1", "true", "yes", "on"):
+        return True
+    if text.lower() in ("0", "false", "no", "off"):
+        return False
+    raise argparse.ArgumentTypeError(f"{text!r} is not true or false")
+
+
+def _cmd_simulate(args: argparse.Namespace, rep: Reporter) -> int:
+    from .io import output_dir, write, write_json, write_table
+    from .simulate import option_fields, simulate
+
+    names = {f.name for f in option_fields(args.preset)}
+    given = {k[4:]: v for k, v in vars(args).items() if k.startswith("opt_") and v is not None}
+    foreign = sorted(set(given) - names)
+    if foreign:
+        raise ParameterError(
+            f"--{foreign[0].replace('_', '-')}: not an option of the {args.preset} preset"
+        )
+    if args.show_options:
+        from .simulate import PRESETS
+
+        opt_cls, sonar = PRESETS[args.preset]
+        values = {**dataclasses.asdict(opt_cls()), **dataclasses.asdict(sonar)}
+        for f in option_fields(args.preset):
+            print(f"--{f.name.replace('_', '-'):24s} {values[f.name]}")
+        return 0
+    out = Path(args.out) if args.out else Path(f"sim-{args.preset}-{args.seed}")
+    ext = {"xyz": ".xyz", "las": ".las", "laz": ".laz", "ply": ".ply", "npz": ".npz"}[args.format]
+    with output_dir(out, overwrite=args.overwrite) as tmp:
+        t = time.perf_counter()
+        sim = simulate(args.preset, seed=args.seed, progress=rep.progress("ray casting"), **given)
+        rep.debug(f"simulated {len(sim.cloud):,} soundings in {time.perf_counter() - t:.2f} s")
+        cloud_path = tmp / f"soundings{ext}"
+        write(sim.cloud, cloud_path)
+        write_json(sim.truth, tmp / "truth.json")
+        import numpy as np
+
+        np.savez_compressed(tmp / "labels.npz", label=sim.labels, ident=sim.ident)
+        if sim.truth.get("design"):
+            write_table(sim.truth["design"], tmp / "design.csv", ["id", "x", "y"])
+        if sim.truth["reefs"]:
+            rows = [{"x": x, "y": y, "id": i} for x, y, i in sim.reference_rows(seed=args.seed)]
+            write_table(rows, tmp / "reference.csv", ["x", "y", "id"])
+    n_obj = (f"{len(sim.truth['piles'])} piles" if sim.truth["piles"]
+             else f"{len(sim.truth['reefs'])} reefs")
+    rep.info(f"{args.preset}: {len(sim.cloud):,} soundings, {n_obj}, written to "
+             f"{out / cloud_path.name} with truth.json")
+    return 0
+
+
+# ----------------------------------------------------------------------------- parser
+
+
+_EPILOG = """\
+examples:
+  mbinspect simulate jacket --seed 1 --out sim-jacket
+  mbinspect info sim-jacket/soundings.xyz
+  mbinspect info survey.csv --columns x,y,-,depth --depth-positive --json
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``mbinspect`` command."""
+    parser = _Parser(
+        prog="mbinspect",
+        description="Engineering answers about underwater piles and artificial reefs "
+                    "from multibeam echosounder point clouds.",
+        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"mbinspect {__version__}")
+    verbosity = parser.add_mutually_exclusive_group()
+    verbosity.add_argument("-v", "--verbose", action="store_true", help="timings of each step")
+    verbosity.add_argument("-q", "--quiet", action="store_true", help="errors only")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    p = sub.add_parser(
+        "info", help="point count, bounds, fields, density of a cloud",
+        description="Summarise a point cloud: count, bounds, z range, fields, density.",
+        epilog="example:\n  mbinspect info soundings.laz --json",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_input(p)
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.add_argument("--cell", type=float, default=1.0, metavar="M",
+                   help="grid cell (m) for the covered area and density (default 1.0)")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser(
+        "simulate", help="simulate a multibeam survey with exact truth",
+        description="Ray-cast a multibeam survey over a scene whose piles and reefs are "
+                    "known exactly; write the soundings, truth.json, labels.npz and "
+                    "design.csv (jacket) or reference.csv (reef-field).",
+        epilog="examples:\n  mbinspect simulate jacket --seed 3 --out sim3\n"
+               "  mbinspect simulate jacket --tilt-max-deg 5 --noise-scale 2 --format laz\n"
+               "  mbinspect simulate reef-field --touching-pairs 4 --sand-wave-amplitude 0.4\n"
+               "  mbinspect simulate jacket --show-options",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("preset", choices=["jacket", "reef-field"])
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default sim-PRESET-SEED)")
+    p.add_argument("--format", choices=["xyz", "las", "laz", "ply", "npz"], default="xyz",
+                   help="format of the soundings file (default xyz)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
+    p.add_argument("--show-options", action="store_true",
+                   help="list the preset's options and defaults, then stop")
+    _add_simulate_options(p)
+    p.set_defaults(func=_cmd_simulate)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        rep = Reporter(-1 if args.quiet else (1 if args.verbose else 0))
+        result: int = args.func(args, rep)
+        return result
+    except MBInspectError as exc:
+        print(f"mbinspect: error: {exc}", file=sys.stderr)
+        return EXIT_USER
+    except KeyboardInterrupt:
+        print("mbinspect: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPT
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
