@@ -343,7 +343,7 @@ def _sniff_ascii(
                     "expected an ASCII point file"
                 ) from None
             stripped = line.strip()
-            if not stripped or stripped.startswith("#") or stripped.startswith("//"):
+            if not stripped or stripped.startswith("#"):
                 offset += len(raw)
                 continue
             if delimiter is None:
@@ -418,7 +418,7 @@ def _parse_chunk(args: tuple[str, int, int, str | None, int, bool]) -> np.ndarra
             arr = np.loadtxt(
                 _io.BytesIO(data),
                 delimiter=delimiter,
-                comments=("#", "//"),
+                comments="#",
                 dtype=np.float64,
                 ndmin=2,
                 usecols=range(ncols) if trailing else None,
@@ -461,7 +461,7 @@ def _locate_ascii_error(path: Path, layout: _AsciiLayout) -> str:
             if lineno < layout.first_line:
                 continue
             stripped = line.strip()
-            if not stripped or stripped.startswith("#") or stripped.startswith("//"):
+            if not stripped or stripped.startswith("#"):
                 continue
             cells = _split(stripped, layout.delimiter)
             if layout.trailing and cells and cells[-1] == "":
@@ -521,7 +521,7 @@ def _locate_nonfinite(path: Path, layout: _AsciiLayout, row: int) -> str:
             if lineno < layout.first_line:
                 continue
             stripped = line.strip()
-            if not stripped or stripped.startswith("#") or stripped.startswith("//"):
+            if not stripped or stripped.startswith("#"):
                 continue
             seen += 1
             if seen == row:
