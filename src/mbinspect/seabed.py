@@ -1,0 +1,200 @@
+"""The seabed: the reef paper's RANSAC plane and a robust local grid surface.
+
+Both give the elevation of the seabed under any point, so that a structure's points
+are those standing well above it (``height_above``).
+
+Examples
+--------
+>>> import numpy as np
+>>> from mbinspect.seabed import grid_seabed
+>>> rng = np.random.default_rng(0)
+>>> xy = rng.uniform(0, 40, (20000, 2))
+>>> z = -20 + 0.05 * xy[:, 0] + rng.normal(0, 0.02, len(xy))
+>>> on_box = (np.abs(xy - 20) < 1).all(axis=1)
+>>> z[on_box] += 3.0                               # a 2 m wide object 3 m tall
+>>> surf = grid_seabed(np.column_stack([xy, z]), cell=1.0, window=5.0)
+>>> abs(float(surf.elevation(20.0, 20.0)) - (-19.0)) < 0.05
+True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import NotEnoughPointsError, ParameterError
+from .fit import Plane, msac, ransac_trials
+from .io import check_points
+
+__all__ = ["GridSurface", "grid_seabed", "PlaneSeabed", "ransac_plane"]
+
+
+@dataclass(frozen=True, eq=False)
+class GridSurface:
+    """A seabed elevation grid with bilinear interpolation.
+
+    ``z[i, j]`` is the elevation at ``x0 + (i + 0.5) * cell, y0 + (j + 0.5) * cell``.
+    Cells without data are filled from the nearest cell with data; ``observed`` says which
+    cells had soundings.
+    """
+
+    x0: float
+    y0: float
+    cell: float
+    z: np.ndarray
+    observed: np.ndarray
+    window: float
+    percentile: float
+    method: str = field(default="grid")
+
+    def elevation(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+        """Seabed elevation at ``x, y`` (bilinear; clamped at the grid edge)."""
+        u = (np.asarray(x, np.float64) - self.x0) / self.cell - 0.5
+        v = (np.asarray(y, np.float64) - self.y0) / self.cell - 0.5
+        nx, ny = self.z.shape
+        u = np.clip(u, 0, nx - 1)
+        v = np.clip(v, 0, ny - 1)
+        i = np.minimum(u.astype(np.intp), max(nx - 2, 0))
+        j = np.minimum(v.astype(np.intp), max(ny - 2, 0))
+        fu, fv = u - i, v - j
+        i1, j1 = np.minimum(i + 1, nx - 1), np.minimum(j + 1, ny - 1)
+        z = self.z
+        return ((z[i, j] * (1 - fu) + z[i1, j] * fu) * (1 - fv)
+                + (z[i, j1] * (1 - fu) + z[i1, j1] * fu) * fv)
+
+    def height_above(self, points: np.ndarray) -> np.ndarray:
+        """Height of each point above the seabed under it (m)."""
+        p = np.asarray(points, np.float64)
+        return p[:, 2] - self.elevation(p[:, 0], p[:, 1])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"method": self.method, "cell": self.cell, "window": self.window,
+                "percentile": self.percentile, "shape": list(self.z.shape),
+                "z_min": float(self.z.min()), "z_max": float(self.z.max())}
+
+
+def _cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.ndarray:
+    order = np.lexsort((z, key))
+    ks, zs = key[order], z[order]
+    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+    counts = np.diff(np.r_[starts, len(ks)])
+    pick = starts + np.floor(q / 100.0 * (counts - 1)).astype(np.int64)
+    out = np.full(size, np.nan)
+    out[ks[starts]] = zs[pick]
+    return out
+
+
+def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
+                percentile: float = 10.0) -> GridSurface:
+    """A robust local seabed surface that ignores structures narrower than ``window``.
+
+    Per ``cell`` the ``percentile`` of z; a 3 x 3 median removes lone spikes; a grey
+    opening (erosion then dilation) over ``window`` m removes whatever stands on the
+    seabed and is narrower than the window (piles, reefs, boulders) while keeping slopes
+    and sand waves longer than it; empty cells take their nearest neighbour's value.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    cell : float
+        Grid cell (m); default 1.0.
+    window : float
+        Width (m) of the widest object to see through; default 5.0. Use more than the
+        largest pile diameter or reef footprint.
+    percentile : float
+        Per-cell z percentile, 0-100; default 10 (the seabed is the low part).
+    """
+    pts = check_points(points, minimum=3)
+    for name, v in (("cell", cell), ("window", window)):
+        if not (v > 0 and math.isfinite(v)):
+            raise ParameterError(f"{name}: {v} must be a positive number")
+    if not 0 <= percentile <= 100:
+        raise ParameterError(f"percentile: {percentile} must be within 0..100")
+    lo = pts[:, :2].min(axis=0)
+    ij = np.floor((pts[:, :2] - lo) / cell).astype(np.int64)
+    nx, ny = int(ij[:, 0].max()) + 1, int(ij[:, 1].max()) + 1
+    key = ij[:, 0] * ny + ij[:, 1]
+    grid = _cell_percentile(key, pts[:, 2], percentile, nx * ny).reshape(nx, ny)
+    observed = np.isfinite(grid)
+    filled = _fill_nearest(grid)
+    filled = ndimage.median_filter(filled, size=3, mode="nearest")
+    w = max(3, int(math.ceil(window / cell)) | 1)
+    opened = ndimage.grey_opening(filled, size=(w, w), mode="nearest")
+    return GridSurface(float(lo[0]), float(lo[1]), cell, opened, observed, window, percentile)
+
+
+def _fill_nearest(grid: np.ndarray) -> np.ndarray:
+    missing = ~np.isfinite(grid)
+    if not missing.any():
+        return grid
+    if missing.all():
+        raise NotEnoughPointsError("grid_seabed: no cell has data")
+    idx = ndimage.distance_transform_edt(missing, return_distances=False, return_indices=True)
+    return grid[tuple(idx)]
+
+
+@dataclass(frozen=True, eq=False)
+class PlaneSeabed:
+    """The reef paper's seabed: one RANSAC plane, its inliers and the trial bookkeeping."""
+
+    plane: Plane
+    inliers: np.ndarray
+    inlier_ratio: float
+    trials: int
+    trials_needed: int
+    threshold: float
+    rms: float
+    method: str = "plane"
+
+    def elevation(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+        return self.plane.z_at(np.asarray(x, np.float64), np.asarray(y, np.float64))
+
+    def height_above(self, points: np.ndarray) -> np.ndarray:
+        p = np.asarray(points, np.float64)
+        return p[:, 2] - self.elevation(p[:, 0], p[:, 1])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"method": self.method, "plane": self.plane.to_dict(),
+                "inlier_ratio": self.inlier_ratio, "trials": self.trials,
+                "trials_needed": self.trials_needed, "threshold": self.threshold,
+                "rms": self.rms}
+
+
+def ransac_plane(points: np.ndarray, *, threshold: float = 0.5, confidence: float = 0.99,
+                 max_trials: int = 1000, loss: str = "ransac", seed: int = 0) -> PlaneSeabed:
+    """The reef paper's seabed plane: RANSAC with N = ln(1-q)/ln(1-P^K), P learnt.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    threshold : float
+        Distance threshold D (m); default 0.5 as in the paper.
+    confidence : float
+        q, the wanted probability of drawing one all-inlier sample; default 0.99.
+    max_trials : int
+        Upper bound on N.
+    loss : {"ransac", "msac"}
+        Count inliers (the paper) or score them (MSAC).
+    seed : int
+    """
+    pts = check_points(points, minimum=3)
+    if not threshold > 0:
+        raise ParameterError(f"threshold: {threshold} must be positive")
+    if not 0 < confidence < 1:
+        raise ParameterError(f"confidence: {confidence} must be within (0, 1)")
+    shift = pts.mean(axis=0)
+    local = pts - shift
+    res = msac(local, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold,
+               loss=loss, max_trials=max_trials, confidence=confidence, seed=seed,
+               refine=lambda rows: Plane.fit(rows))
+    if res.model is None:
+        raise NotEnoughPointsError("ransac_plane: no plane could be fitted (degenerate points)")
+    plane = Plane(res.model.point + shift, res.model.normal)
+    r = plane.residuals(pts[res.inliers])
+    return PlaneSeabed(plane, res.inliers, res.inlier_ratio, res.trials,
+                       ransac_trials(res.inlier_ratio, 3, confidence), threshold,
+                       float(np.sqrt(np.mean(r * r))) if len(r) else math.nan)

@@ -1,0 +1,133 @@
+"""Segmentation helpers: normals, clusters, the elevation window, Otsu thresholds.
+
+Examples
+--------
+>>> import numpy as np
+>>> from mbinspect.segment import elevation_window
+>>> z = np.r_[np.full(50, -16.0), np.linspace(-21, -16.2, 50)]
+>>> lo, hi, n = elevation_window(z, window=0.1, step=0.01)
+>>> bool(lo <= -16.0 <= hi), n >= 50
+(True, True)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.cluster.vq import kmeans2
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from .errors import NotEnoughPointsError, ParameterError
+
+__all__ = ["normals", "kmeans", "components", "elevation_window", "otsu_threshold"]
+
+
+def normals(points: np.ndarray, *, k: int = 12, workers: int = -1) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals by PCA over the ``k`` nearest neighbours, oriented up (n_z >= 0).
+
+    Returns
+    -------
+    normals : ndarray, shape (N, 3)
+    curvature : ndarray, shape (N,)
+        Smallest eigenvalue over the sum (0 = flat), a local roughness measure.
+    """
+    pts = np.asarray(points, np.float64)
+    n = len(pts)
+    if n < 3:
+        raise NotEnoughPointsError(f"normals: {n} points, at least 3 needed")
+    kk = min(k, n)
+    centre = pts.mean(axis=0)
+    local = pts - centre
+    _, idx = cKDTree(local).query(local, k=kk, workers=workers)
+    nb = local[idx]  # (N, k, 3)
+    nb = nb - nb.mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", nb, nb) / kk
+    w, v = np.linalg.eigh(cov)
+    nrm = v[:, :, 0]
+    nrm = np.where(nrm[:, 2:3] < 0, -nrm, nrm)
+    curv = w[:, 0] / np.maximum(w.sum(axis=1), 1e-300)
+    return nrm, curv
+
+
+def kmeans(points: np.ndarray, k: int, *, seed: int = 0, n_init: int = 10
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """K-means with k-means++ seeding, best of ``n_init`` seeded runs.
+
+    Returns
+    -------
+    labels : ndarray of int, shape (N,)
+    centres : ndarray, shape (k, D)
+    """
+    pts = np.asarray(points, np.float64)
+    if k < 1:
+        raise ParameterError(f"k: {k} must be >= 1")
+    if len(pts) < k:
+        raise NotEnoughPointsError(f"kmeans: {len(pts)} points for {k} clusters")
+    shift = pts.mean(axis=0)
+    local = pts - shift
+    rng = np.random.default_rng(seed)
+    best = None
+    for _ in range(n_init):
+        centres, labels = kmeans2(local, k, minit="++", seed=rng, iter=50)
+        inertia = float(((local - centres[labels]) ** 2).sum())
+        if best is None or inertia < best[0]:
+            best = (inertia, labels, centres)
+    assert best is not None
+    return best[1], best[2] + shift
+
+
+def components(points: np.ndarray, *, eps: float, min_points: int = 1) -> np.ndarray:
+    """Connected components of points closer than ``eps`` (single linkage).
+
+    Returns labels 0..K-1 ordered by decreasing size; components smaller than
+    ``min_points`` get -1.
+    """
+    pts = np.asarray(points, np.float64)
+    n = len(pts)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    pairs = cKDTree(pts - pts.mean(axis=0)).query_pairs(eps, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, lab = connected_components(graph, directed=False)
+    sizes = np.bincount(lab)
+    order = np.argsort(-sizes, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    out = rank[lab]
+    out[sizes[lab] < min_points] = -1
+    return out
+
+
+def elevation_window(z: np.ndarray, *, window: float = 0.1, step: float = 0.01
+                     ) -> tuple[float, float, int]:
+    """The pile paper's top-face search: slide a ``window`` m z-interval by ``step`` m.
+
+    Returns the interval ``(lo, hi)`` holding the most points and that count.
+    """
+    if window <= 0 or step <= 0:
+        raise ParameterError(f"window {window} and step {step} must be positive")
+    zs = np.sort(np.asarray(z, np.float64))
+    if len(zs) == 0:
+        raise NotEnoughPointsError("elevation_window: no points")
+    starts = np.arange(zs[0] - window, zs[-1] + step, step)
+    counts = np.searchsorted(zs, starts + window, side="right") - np.searchsorted(zs, starts)
+    i = int(np.argmax(counts[::-1]))  # ties: the highest window (the top is on top)
+    i = len(counts) - 1 - i
+    return float(starts[i]), float(starts[i] + window), int(counts[i])
+
+
+def otsu_threshold(values: np.ndarray, *, bins: int = 256) -> float:
+    """Otsu's threshold: the split that maximises the between-class variance."""
+    v = np.asarray(values, np.float64)
+    v = v[np.isfinite(v)]
+    if len(v) < 2 or v.min() == v.max():
+        raise NotEnoughPointsError("otsu_threshold: needs at least two distinct values")
+    hist, edges = np.histogram(v, bins=bins)
+    mids = (edges[:-1] + edges[1:]) / 2
+    w0 = np.cumsum(hist)
+    w1 = w0[-1] - w0
+    m0 = np.cumsum(hist * mids) / np.maximum(w0, 1)
+    m1 = (np.sum(hist * mids) - np.cumsum(hist * mids)) / np.maximum(w1, 1)
+    between = w0 * w1 * (m0 - m1) ** 2
+    return float(edges[int(np.argmax(between[:-1])) + 1])
