@@ -18,7 +18,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import table  # noqa: E402
-
 from mbinspect.piles import locate_piles  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 
@@ -33,6 +32,15 @@ CONFIGS: dict[str, tuple[dict, dict]] = {
 }
 
 
+#: method rows of the table -> locate_piles options
+VARIANTS: dict[str, dict] = {
+    "intersection": {"method": "intersection"},
+    "paper intersection": {"method": "intersection", "radius_mode": "fixed", "segmentation": "paper",
+                           "use_intensity": False},
+    "paper centre": {"method": "centre", "segmentation": "paper", "use_intensity": False},
+}
+
+
 def run_one(args: tuple[str, int]) -> list[dict]:
     name, seed = args
     sim_kw, loc_kw = CONFIGS[name]
@@ -40,8 +48,8 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     truth = {p["id"]: p for p in sim.truth["piles"]}
     tsp = {(s["a"], s["b"]): s["distance"] for s in sim.truth["spacings"]}
     rows = []
-    for method in ("intersection", "centre"):
-        kw = {"count": 4, "radius": 0.75, "method": method, "seed": seed, **loc_kw}
+    for method, extra in VARIANTS.items():
+        kw = {"count": 4, "radius": 0.75, "seed": seed, **extra, **loc_kw}
         res = locate_piles(sim.cloud, **kw)
         piles = {p.id: p for p in res.piles}
         sp_err = [s.distance - tsp[(s.a, s.b)] for s in res.spacings if (s.a, s.b) in tsp]
@@ -69,7 +77,7 @@ def main() -> None:
         results = [r for rows in pool.map(run_one, jobs) for r in rows]
     out = []
     for c in args.configs.split(","):
-        for m in ("intersection", "centre"):
+        for m in VARIANTS:
             rs = [r for r in results if r["config"] == c and r["method"] == m]
             sp = np.concatenate([r["sp_err"] for r in rs]) * 100
             ce = np.concatenate([r["c_err"] for r in rs]) * 100

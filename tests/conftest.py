@@ -9,8 +9,8 @@ from mbinspect.simulate import Simulation, simulate
 
 @pytest.fixture(scope="session")
 def jacket_small() -> Simulation:
-    """The jacket preset at a sixth of its ping density (about 370 k soundings)."""
-    return simulate("jacket", seed=11, ping_spacing=0.3)
+    """The jacket preset at a third of its ping density (about 740 k soundings)."""
+    return simulate("jacket", seed=11, ping_spacing=0.15)
 
 
 @pytest.fixture(scope="session")

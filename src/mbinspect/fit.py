@@ -38,6 +38,7 @@ __all__ = [
     "ransac_trials",
     "fit_cylinder",
     "cylinder_from_normals",
+    "cylinder_msac",
 ]
 
 M = TypeVar("M")
@@ -88,7 +89,7 @@ class Plane:
         p = np.asarray(sample, np.float64)[:, :3]
         n = np.cross(p[1] - p[0], p[2] - p[0])
         norm = np.linalg.norm(n)
-        scale = max(np.linalg.norm(p[1] - p[0]) * np.linalg.norm(p[2] - p[0]), 1e-300)
+        scale = max(float(np.linalg.norm(p[1] - p[0]) * np.linalg.norm(p[2] - p[0])), 1e-300)
         if norm < 1e-6 * scale:
             return None
         n = n / norm
@@ -129,7 +130,7 @@ class Circle:
         b = (p**2).sum(axis=1)
         sol, *_ = np.linalg.lstsq(A, b, rcond=None)
         c0 = sol[:2]
-        r0 = math.sqrt(max(sol[2] + c0 @ c0, 1e-12)) if radius is None else radius
+        r0 = math.sqrt(max(float(sol[2] + c0 @ c0), 1e-12)) if radius is None else float(radius)
         if radius is None:
             res = least_squares(lambda q: np.hypot(*(p - q[:2]).T) - q[2], np.r_[c0, r0])
             return cls(res.x[:2], float(res.x[2]))
@@ -329,7 +330,7 @@ def msac(
     max_trials: int = 2000,
     min_trials: int = 20,
     confidence: float = 0.99,
-    refine: Callable[[np.ndarray], M | None] | None = None,
+    refine: Callable[[np.ndarray, M], M | None] | None = None,
     seed: int | np.random.Generator | None = 0,
 ) -> RobustResult[M]:
     """One robust loop for every model: RANSAC or MSAC scoring, adaptive trial count.
@@ -354,8 +355,8 @@ def msac(
         The trial count adapts as ``ln(1 - confidence) / ln(1 - P**K)`` with the best
         inlier ratio P seen so far, between the two bounds.
     refine : callable, optional
-        ``refine(inlier_rows)`` re-estimates the best model from all its inliers (local
-        optimisation), kept only if it scores better.
+        ``refine(inlier_rows, model)`` re-estimates the best model from all its inliers
+        (local optimisation), repeated while the score improves.
     seed : int or Generator
         Randomness; the same seed gives the same result.
     """
@@ -365,12 +366,13 @@ def msac(
         raise ParameterError(f"threshold: {threshold} must be positive")
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     n = len(data)
-    empty = RobustResult(None, np.zeros(n, dtype=bool), math.inf, 0, 0.0)
+    empty: RobustResult[M] = RobustResult(None, np.zeros(n, dtype=bool), math.inf, 0, 0.0)
     if n < sample_size:
         return empty
     t2 = threshold * threshold
 
     def score_of(model: M) -> tuple[float, np.ndarray]:
+        """The loss of ``model`` (lower is better) and its inlier mask."""
         r = residuals(model, data)
         r2 = r * r
         inl = r2 <= t2
@@ -387,21 +389,49 @@ def msac(
         models = estimate(data[idx])
         if models is None:
             continue
-        for model in (models if isinstance(models, (list, tuple)) else [models]):
+        candidates: list[M] = list(models) if isinstance(models, (list, tuple)) else [models]  # type: ignore[list-item]
+        for model in candidates:
             s, inl = score_of(model)
             if s < best_score:
                 best, best_score, best_inl = model, s, inl
                 ratio = inl.sum() / n
                 needed = max(min_trials, ransac_trials(ratio, sample_size, confidence))
     if best is not None and refine is not None and best_inl.sum() >= sample_size:
-        for _ in range(3):
-            model = refine(data[best_inl])
-            if model is None:
+        for _ in range(3):  # local optimisation while the score improves
+            refined = refine(data[best_inl], best)
+            if refined is None:
                 break
-            s, inl = score_of(model)
+            s, inl = score_of(refined)
             if s >= best_score:
                 break
-            best, best_score, best_inl = model, s, inl
+            best, best_score, best_inl = refined, s, inl
     if best is None:
         return RobustResult(None, best_inl, math.inf, trial, 0.0)
     return RobustResult(best, best_inl, best_score, trial, float(best_inl.sum()) / n)
+
+
+def cylinder_msac(points: np.ndarray, normals: np.ndarray, *, radius: float, threshold: float,
+                  max_tilt_deg: float = 15.0, seed: int | np.random.Generator | None = 0,
+                  max_trials: int = 500, free_radius: bool = False) -> RobustResult[Cylinder]:
+    """MSAC for a cylinder of prior ``radius``, with least-squares local optimisation.
+
+    Two points and their normals propose an axis (:func:`cylinder_from_normals`) with the
+    prior radius; the best hypothesis is refined by :func:`fit_cylinder` on its inliers
+    (kept while it scores better), so a rough proposal from noisy normals still ends on
+    the right model. With ``free_radius`` the refinement also fits the radius, so a prior
+    a few centimetres off (design tolerance, marine growth) is corrected by the data.
+    """
+    data = np.hstack([np.asarray(points, np.float64)[:, :3], np.asarray(normals, np.float64)])
+
+    def refine(rows: np.ndarray, model: Cylinder) -> Cylinder | None:
+        if len(rows) < 6:
+            return None
+        try:
+            return fit_cylinder(rows[:, :3], model, radius=None if free_radius else radius,
+                                f_scale=threshold)[0]
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+
+    return msac(data, lambda rows: cylinder_from_normals(rows, radius=radius, max_tilt_deg=max_tilt_deg),
+                lambda m, rows: m.residuals(rows), 2, threshold, seed=seed, max_trials=max_trials,
+                refine=refine)

@@ -45,7 +45,7 @@ import numpy as np
 
 from .errors import DataError, FileAccessError, InputError, ParameterError
 from .filters import radius_outlier
-from .fit import Cylinder, Plane, cylinder_from_normals, fit_cylinder, msac
+from .fit import Cylinder, Plane, cylinder_msac, fit_cylinder, msac
 from .io import PointCloud, check_points, to_jsonable
 from .seabed import GridSurface, grid_seabed
 from .segment import components, elevation_window, kmeans, normals, otsu_threshold
@@ -119,7 +119,8 @@ def read_design(path: str | Path) -> Design:
         cols = [header.index(c) for c in ("id", "x", "y")]
         positions: dict[int, tuple[float, float]] = {}
         for lineno, cells in body:
-            pid, x, y = _design_row(p, lineno, cells, cols, header)
+            v = _design_row(p, lineno, cells, cols, header, n_ids=1)
+            pid, x, y = int(v[0]), v[1], v[2]
             if pid in positions:
                 raise InputError(f"{p}, line {lineno}: pile id {pid} appears twice")
             positions[pid] = (x, y)
@@ -128,7 +129,8 @@ def read_design(path: str | Path) -> Design:
         cols = [header.index(c) for c in ("a", "b", "distance")]
         spacings: dict[tuple[int, int], float] = {}
         for lineno, cells in body:
-            a, b, d = _design_row(p, lineno, cells, cols, header)
+            v = _design_row(p, lineno, cells, cols, header, n_ids=2)
+            a, b, d = int(v[0]), int(v[1]), v[2]
             if a == b:
                 raise InputError(f"{p}, line {lineno}: a spacing from pile {a} to itself")
             if not d > 0:
@@ -140,8 +142,9 @@ def read_design(path: str | Path) -> Design:
     )
 
 
-def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header: list[str]
-                ) -> tuple[int, float, float]:
+def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header: list[str],
+                *, n_ids: int) -> list[float]:
+    """The numbers of one design row; the first ``n_ids`` must be whole (pile ids)."""
     if len(cells) < len(header):
         raise InputError(f"{p}, line {lineno}: {len(cells)} values, expected {len(header)}")
     out: list[float] = []
@@ -155,13 +158,13 @@ def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header:
             ) from None
         if not math.isfinite(v):
             raise InputError(f"{p}, line {lineno}, column {c + 1}: {text!r} is not finite")
-        if k < 2 - (0 if header[cols[0]] == "a" else 1) and v != int(v):
+        if k < n_ids and v != int(v):
             raise InputError(
                 f"{p}, line {lineno}, column {c + 1} ({header[c]}): pile id {text!r} "
                 "is not a whole number"
             )
         out.append(v)
-    return int(out[0]), (int(out[1]) if header[cols[0]] == "a" else out[1]), out[2]  # type: ignore[return-value]
+    return out
 
 
 # ----------------------------------------------------------------------------- results
@@ -204,7 +207,7 @@ class PileFit:
     alternatives: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        d = {
+        d: dict[str, Any] = {
             "id": self.id, "x": self.x, "y": self.y, "z": self.z, "radius": self.radius,
             "tilt_deg": self.tilt_deg, "tilt_azimuth_deg": self.tilt_azimuth_deg,
             "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
@@ -214,7 +217,7 @@ class PileFit:
         }
         if self.alternatives:
             d["methods"] = self.alternatives
-        return to_jsonable(d)  # type: ignore[no-any-return]
+        return to_jsonable(d)
 
 
 @dataclass(frozen=True)
@@ -231,7 +234,7 @@ class Spacing:
     method: str = "intersection"
 
     def to_dict(self) -> dict[str, Any]:
-        return to_jsonable({"a": self.a, "b": self.b, "distance": self.distance,  # type: ignore[no-any-return]
+        return to_jsonable({"a": self.a, "b": self.b, "distance": self.distance,
                             "sigma": self.sigma, "design": self.design,
                             "deviation": self.deviation, "pass": self.passed,
                             "method": self.method})
@@ -271,7 +274,7 @@ class PileResult:
 
 
 def elevated_points(points: np.ndarray, *, min_height: float = 1.0, seabed_cell: float = 1.0,
-                    seabed_window: float = 5.0, noise_radius: float = 0.3,
+                    seabed_window: float = 5.0, noise_radius: float = 1.0,
                     noise_neighbors: int = 3) -> tuple[np.ndarray, GridSurface]:
     """Points standing more than ``min_height`` m above a robust local seabed.
 
@@ -314,10 +317,13 @@ def separate_piles(points: np.ndarray, *, count: int | None = None, radius: floa
                    ) -> tuple[np.ndarray, list[str]]:
     """Split elevated points into piles.
 
-    With ``count`` the paper's K-means (k-means++ seeding, seeded) on the plan
-    positions; clusters are then cut to their largest connected part (``link`` m), so no
-    cluster keeps a neighbour's or stray points, and clusters that split one pile are
-    merged. Without ``count`` the connected components with at least ``min_points``.
+    First the connected parts (points closer than ``link`` m in plan) that look like a
+    pile (at least ``min_points``, no wider than ``2 r + 2`` m); lone clumps are left
+    out. With ``count``, the paper's K-means (k-means++ seeding, seeded) runs on those
+    points: a part that K-means splits into several large shares is touching piles and is
+    split accordingly, while a K-means cluster can never take a neighbour's or stray
+    points, because labels follow the parts. More parts than ``count``: the largest are
+    kept; fewer: all are kept, with a warning.
 
     Returns
     -------
@@ -327,65 +333,63 @@ def separate_piles(points: np.ndarray, *, count: int | None = None, radius: floa
     """
     pts = np.asarray(points, np.float64)
     warnings: list[str] = []
+    if count is not None and count < 1:
+        raise ParameterError(f"--count: {count} must be at least 1")
+    labels = np.full(len(pts), -1, dtype=np.int64)
     if len(pts) == 0:
-        return np.zeros(0, dtype=np.int64), ["no points stand above the seabed"]
+        return labels, ["no points stand above the seabed"]
     comp = components(pts[:, :2], eps=link, min_points=min_points)
-    if count is None:
-        labels = comp
-    else:
-        if count < 1:
-            raise ParameterError(f"--count: {count} must be at least 1")
-        k = min(count, len(pts))
-        km, _ = kmeans(pts[:, :2], k, seed=seed)
-        labels = np.full(len(pts), -1, dtype=np.int64)
-        for c in range(k):
-            sel = np.flatnonzero(km == c)
-            if len(sel) == 0:
-                continue
-            sub = comp[sel]
-            valid = sub[sub >= 0]
-            if len(valid) == 0:
-                continue
-            main = np.bincount(valid).argmax()
-            labels[sel[sub == main]] = c
-        # clusters holding parts of one component split a pile: merge them
-        for c in range(k):
-            sel = labels == c
-            if not sel.any():
-                continue
-            owner = np.bincount(comp[sel][comp[sel] >= 0]).argmax()
-            others = [d for d in range(c) if (labels == d).any()
-                      and np.bincount(comp[labels == d][comp[labels == d] >= 0]).argmax() == owner]
-            if others:
-                labels[sel] = others[0]
-        found = len(np.unique(labels[labels >= 0]))
-        if found < count:
-            warnings.append(f"--count {count}: only {found} piles found in the data; "
-                            f"results are given for those {found}")
-        n_comp = int(comp.max()) + 1 if (comp >= 0).any() else 0
-        if n_comp > count:
-            warnings.append(f"--count {count}: the data show {n_comp} separate structures; "
-                            "the smallest were left out")
-    ids = [c for c in np.unique(labels) if c >= 0]
-    if not ids:
-        return np.full(len(pts), -1, dtype=np.int64), warnings + [
-            "no pile found among the points above the seabed"]
-    centres = np.array([pts[labels == c, :2].mean(axis=0) for c in ids])
-    order = stable_order(centres)
-    remap = np.full(int(max(ids)) + 1, -1, dtype=np.int64)
-    for new, old in enumerate(np.asarray(ids)[order]):
-        remap[old] = new
-    out = np.where(labels >= 0, remap[np.maximum(labels, 0)], -1)
-    for c in range(len(ids)):
-        span = np.ptp(pts[out == c, :2], axis=0).max()
+    parts: list[np.ndarray] = []
+    wide = 0
+    for c in range(int(comp.max()) + 1 if (comp >= 0).any() else 0):
+        idx = np.flatnonzero(comp == c)
+        span = float(np.ptp(pts[idx, :2], axis=0).max())
+        if span > 2 * radius + 2.0 and count is None:
+            wide += 1
+            continue
+        parts.append(idx)
+    if wide:
+        warnings.append(f"{wide} structure(s) wider than a pile of radius {radius} m were left out")
+    if count is not None and parts:
+        sel = np.concatenate(parts)
+        km, _ = kmeans(pts[sel, :2], min(count, len(sel)), seed=seed)
+        km_of = np.full(len(pts), -1, dtype=np.int64)
+        km_of[sel] = km
+        split: list[np.ndarray] = []
+        for idx in parts:
+            shares = np.bincount(km_of[idx])
+            big = np.flatnonzero(shares >= max(min_points, 0.25 * len(idx)))
+            one_pile = float(np.ptp(pts[idx, :2], axis=0).max()) <= 2 * radius + 0.5
+            if len(big) <= 1 or one_pile:
+                split.append(idx)
+            else:
+                split += [idx[km_of[idx] == k] for k in big]
+        parts = split
+        if len(parts) > count:
+            parts.sort(key=len, reverse=True)
+            warnings.append(f"--count {count}: the data show {len(parts)} pile-like structures; "
+                            f"the {count} largest were kept")
+            parts = parts[:count]
+        elif len(parts) < count:
+            warnings.append(f"--count {count}: only {len(parts)} piles found in the data; "
+                            f"results are given for those {len(parts)}")
+    if not parts:
+        return labels, warnings + ["no pile found among the points above the seabed"]
+    centres = np.array([pts[idx, :2].mean(axis=0) for idx in parts])
+    for new_id, k in enumerate(stable_order(centres)):
+        labels[parts[k]] = new_id
+    for k, idx in enumerate(parts):
+        span = float(np.ptp(pts[idx, :2], axis=0).max())
         if span > 2 * radius + 1.5:
-            warnings.append(f"pile cluster {c + 1} spans {span:.1f} m in plan, more than a "
-                            f"pile of radius {radius} m: merged structures?")
-    return out, warnings
+            warnings.append(f"a pile cluster near ({centres[k, 0]:.1f}, {centres[k, 1]:.1f}) spans "
+                            f"{span:.1f} m in plan, more than a pile of radius {radius} m: "
+                            "merged structures?")
+    return labels, warnings
 
 
 def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
-                   step: float = 0.01, normal_k: int = 12, top_normal_deg: float = 30.0,
+                   step: float = 0.01, normal_k: int = 16, min_planarity: float = 0.3,
+                   top_normal_deg: float = 30.0,
                    side_normal_deg: float = 40.0, edge_band: float = 0.15,
                    intensity: np.ndarray | None = None, intensity_threshold: float | None = None,
                    paper: bool = False) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
@@ -400,6 +404,8 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
         The paper's elevation window (0.1 m) and its step (0.01 m).
     normal_k : int
         Neighbours for the PCA normals.
+    min_planarity : float
+        A normal is trusted where the neighbourhood's planarity reaches this (0-1).
     top_normal_deg, side_normal_deg : float
         A top point's normal is within ``top_normal_deg`` of vertical; a side point's is
         within ``side_normal_deg`` of horizontal.
@@ -423,13 +429,19 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
     if paper:
         top = (pts[:, 2] >= lo) & (pts[:, 2] <= hi)
         return top, pts[:, 2] < lo, info
-    nrm, _ = normals(pts, k=normal_k)
+    nrm, planarity = normals(pts, k=normal_k)
     nz = np.abs(nrm[:, 2])
+    # only a well-defined normal may veto a point: on a sparse survey a point's neighbours
+    # can all lie on one ping's line, where PCA gives no normal at all
+    defined = planarity >= min_planarity
     # a tilted top spans +-r sin(tilt) around the window: accept a band, then trust normals
     band = max(window, 2 * radius * math.sin(math.radians(8.0)))
     mid = (lo + hi) / 2
-    top = (np.abs(pts[:, 2] - mid) <= band / 2 + 0.05) & (nz >= math.cos(math.radians(top_normal_deg)))
-    side = (pts[:, 2] < mid - band / 2 - edge_band) & (nz <= math.sin(math.radians(side_normal_deg)))
+    top = (np.abs(pts[:, 2] - mid) <= band / 2 + 0.05) & (
+        ~defined | (nz >= math.cos(math.radians(top_normal_deg))))
+    side = (pts[:, 2] < mid - band / 2 - edge_band) & (
+        ~defined | (nz <= math.sin(math.radians(side_normal_deg))))
+    info["n_normal_undefined"] = int((~defined).sum())
     if intensity is not None and intensity_threshold is not None:
         dark = np.asarray(intensity) < intensity_threshold
         info["n_dark_removed"] = int((dark & (top | side)).sum())
@@ -505,20 +517,28 @@ def _top_coverage(top: np.ndarray, centre: np.ndarray, radius: float, cell: floa
 def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndarray, *,
                         radius: float, threshold: float = 0.06, max_tilt_deg: float = 15.0,
                         seed: int = 0, groups: np.ndarray | None = None,
-                        start: Cylinder | None = None
+                        start: Cylinder | None = None, radius_mode: str = "auto",
+                        min_free_coverage_deg: float = 150.0, max_free_sigma: float = 0.005,
                         ) -> tuple[Cylinder, Plane, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The paper's intersection method, made robust and unbiased.
 
-    A cylinder of the prior ``radius`` by MSAC on the side points (two points with their
-    normals propose an axis), refined by least squares on true orthogonal distances with
+    A cylinder by MSAC on the side points (two points with their normals propose an axis
+    of the prior ``radius``), refined by least squares on true orthogonal distances with
     a robust loss; a plane fitted (MSAC, then least squares) to the top; the centre is
     where the axis meets that plane.
+
+    ``radius_mode`` "fixed" keeps the prior radius (the paper); "free" fits it; "auto"
+    (default) fits it when the side is scanned over at least ``min_free_coverage_deg``
+    and the fitted radius has a 1-sigma of at most ``max_free_sigma`` m, else keeps the
+    prior. A wrong fixed radius shifts the centre toward the scanned side.
 
     Returns
     -------
     cylinder, plane, centre (3,), side_inliers, top_inliers, cov (4, 4)
         ``cov`` is the cluster-robust covariance of (x, y, ax, ay) at the top.
     """
+    if radius_mode not in ("auto", "fixed", "free"):
+        raise ParameterError(f"--radius-mode: {radius_mode!r} is not auto, fixed or free")
     s = np.asarray(side, np.float64)
     t = np.asarray(top, np.float64)
     if len(t) < 3:
@@ -528,28 +548,37 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     shift = np.r_[s[:, :2].mean(axis=0), 0.0]
     ls, lt = s - shift, t - shift
     pres = msac(lt, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold / 2,
-                seed=seed, refine=lambda rows: Plane.fit(rows))
+                seed=seed, refine=lambda rows, _m: Plane.fit(rows))
     if pres.model is None:
         raise DataError("intersection method: no plane fits the top points")
     plane = pres.model
     if start is None:
-        data = np.hstack([ls, side_normals])
-        res = msac(data, lambda rows: cylinder_from_normals(rows, radius=radius,
-                                                            max_tilt_deg=max_tilt_deg),
-                   lambda m, rows: m.residuals(rows), 2, threshold, seed=seed, max_trials=500)
+        res = cylinder_msac(ls, side_normals, radius=radius, threshold=threshold,
+                            max_tilt_deg=max_tilt_deg, seed=seed, free_radius=radius_mode != "fixed")
         if res.model is None:
             raise DataError("intersection method: no cylinder fits the side points")
         cyl0 = res.model
         inl = res.inliers
     else:
-        cyl0 = Cylinder(start.point - shift, start.axis, radius)
+        cyl0 = Cylinder(start.point - shift, start.axis, start.radius)
         inl = np.abs(cyl0.residuals(ls)) <= threshold
     z_top = float(np.median(lt[pres.inliers, 2]))
-    cyl, cov = fit_cylinder(ls[inl], cyl0, radius=radius, z_ref=z_top, f_scale=threshold,
-                            groups=None if groups is None else np.asarray(groups)[inl])
-    inl = np.abs(cyl.residuals(ls)) <= threshold
-    cyl, cov = fit_cylinder(ls[inl], cyl, radius=radius, z_ref=z_top, f_scale=threshold,
-                            groups=None if groups is None else np.asarray(groups)[inl])
+    g = None if groups is None else np.asarray(groups)
+
+    def refit(model: Cylinder, r: float | None) -> tuple[Cylinder, np.ndarray, np.ndarray]:
+        sel = np.abs(model.residuals(ls)) <= threshold
+        for _ in range(2):
+            model, cv = fit_cylinder(ls[sel], model, radius=r, z_ref=z_top, f_scale=threshold,
+                                     groups=None if g is None else g[sel])
+            sel = np.abs(model.residuals(ls)) <= threshold
+        return model, cv, sel
+
+    cyl, cov, inl = refit(cyl0 if radius_mode != "fixed" else Cylinder(cyl0.point, cyl0.axis, radius),
+                          None if radius_mode != "fixed" else radius)
+    if radius_mode == "auto":
+        r_sigma = math.sqrt(max(float(cov[4, 4]), 0.0)) if cov.shape[0] > 4 else math.inf
+        if _side_coverage(cyl, ls[inl]) < min_free_coverage_deg or not r_sigma <= max_free_sigma:
+            cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
     centre = cyl.intersect(plane)
     if centre is None:
         raise DataError("intersection method: the axis is parallel to the top plane")
@@ -595,6 +624,7 @@ def locate_piles(
     threshold: float = 0.06,
     use_intensity: bool = True,
     segmentation: str = "joint",
+    radius_mode: str = "auto",
     delta: float = 0.01,
     max_iterations: int = 20,
     max_tilt_deg: float = 15.0,
@@ -637,6 +667,9 @@ def locate_piles(
         Drop points darker than an Otsu threshold between structure and seabed.
     segmentation : {"joint", "paper"}
         Our joint window + normals + intensity split, or the paper's window alone.
+    radius_mode : {"auto", "fixed", "free"}
+        Keep the prior radius (the paper), fit it, or fit it where the side coverage
+        supports it (default); see :func:`intersection_method`.
     delta : float
         Stop when every spacing changes by less than this between iterations (m); 0.01.
     max_iterations : int
@@ -654,6 +687,8 @@ def locate_piles(
     """
     if method not in METHODS:
         raise ParameterError(f"--method: {method!r} is not one of {', '.join(METHODS)}")
+    if radius_mode not in ("auto", "fixed", "free"):
+        raise ParameterError(f"--radius-mode: {radius_mode!r} is not auto, fixed or free")
     if segmentation not in ("joint", "paper"):
         raise ParameterError(f"--segmentation: {segmentation!r} is not 'joint' or 'paper'")
     for name, v in (("--radius", radius), ("--tolerance", tolerance), ("--delta", delta),
@@ -674,6 +709,7 @@ def locate_piles(
     params = {k: v for k, v in locals().items()
               if k in ("radius", "count", "method", "tolerance", "min_height", "seabed_cell",
                        "window", "step", "ks", "threshold", "use_intensity", "segmentation",
+                       "radius_mode",
                        "delta", "max_iterations", "max_tilt_deg", "min_top", "min_side",
                        "min_coverage_deg", "max_sigma", "seed")}
     sw = seabed_window if seabed_window is not None else max(5.0, 4 * radius + 1)
@@ -706,7 +742,7 @@ def locate_piles(
             p, radius=radius, window=window, step=step,
             intensity=None if intensity is None else intensity[idx],
             intensity_threshold=thr, paper=(segmentation == "paper"))
-        nrm, _ = normals(p, k=12) if len(p) >= 3 else (np.zeros((len(p), 3)), None)
+        nrm = normals(p)[0] if len(p) >= 3 else np.zeros((len(p), 3))
         segs[c + 1] = PileSegment(p, top, side, None if ping is None else ping[idx])
         side_n[c + 1] = nrm[side]
         seg_info[c + 1] = info
@@ -722,7 +758,7 @@ def locate_piles(
                                  if side_m.any() else np.zeros((0, 3)),
                                  radius=radius, method=method, ks=ks, threshold=threshold,
                                  max_tilt_deg=max_tilt_deg, seed=seed + pid,
-                                 previous=fits.get(pid))
+                                 previous=fits.get(pid), radius_mode=radius_mode)
         current = {(a, b): math.hypot(fits[a]["x"] - fits[b]["x"], fits[a]["y"] - fits[b]["y"])
                    for a, b in itertools.combinations(sorted(fits), 2)}
         iterations.append({
@@ -750,8 +786,8 @@ def locate_piles(
         if f["method"] != "centre" and f["coverage"] < min_coverage_deg:
             flags.append(f"side scanned over {f['coverage']:.0f} deg < {min_coverage_deg:.0f} deg")
         if not (f["sigma_xy"] <= max_sigma):
-            flags.append(f"plan uncertainty {100 * f['sigma_xy']:.1f} cm (1 sigma) exceeds "
-                         f"{100 * max_sigma:.1f} cm: the data cannot support a centimetre answer")
+            flags.append(f"plan uncertainty {1000 * f['sigma_xy']:.1f} mm (1 sigma) exceeds "
+                         f"{1000 * max_sigma:.1f} mm: the data cannot support a centimetre answer")
         if f.get("radius_fitted") is not None and abs(f["radius_fitted"] - radius) > max(0.03, 0.05 * radius):
             flags.append(f"the points show a radius of {f['radius_fitted']:.3f} m, not the prior "
                          f"{radius:.3f} m")
@@ -761,7 +797,7 @@ def locate_piles(
         if f.get("cylinder") is not None:
             cylinders[pid] = f["cylinder"]
         piles.append(PileFit(
-            id=pid, x=f["x"], y=f["y"], z=f["z"], radius=radius,
+            id=pid, x=f["x"], y=f["y"], z=f["z"], radius=f.get("radius_used", radius),
             tilt_deg=f.get("tilt_deg"), tilt_azimuth_deg=f.get("tilt_azimuth_deg"),
             method=f["method"], n_top=f["n_top"], n_side=f["n_side"],
             side_coverage_deg=f["coverage"], rms=f["rms"], sigma_xy=f["sigma_xy"],
@@ -826,7 +862,7 @@ def _crop_mask(xyz: np.ndarray, crop: tuple[float, float, float, float] | np.nda
 
 def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_normals: np.ndarray, *,
              radius: float, method: str, ks: float, threshold: float, max_tilt_deg: float,
-             seed: int, previous: dict[str, Any] | None) -> dict[str, Any]:
+             seed: int, previous: dict[str, Any] | None, radius_mode: str = "auto") -> dict[str, Any]:
     top = seg.points[top_m]
     side = seg.points[side_m]
     gtop = None if seg.ping is None else seg.ping[top_m]
@@ -850,7 +886,8 @@ def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_norma
         try:
             cyl, plane, centre, s_in, t_in, cov = intersection_method(
                 side, side_normals, top, radius=radius, threshold=threshold,
-                max_tilt_deg=max_tilt_deg, seed=seed, groups=gside, start=start_cyl)
+                max_tilt_deg=max_tilt_deg, seed=seed, groups=gside, start=start_cyl,
+                radius_mode=radius_mode)
         except DataError as exc:
             out["flags"].append(f"intersection method failed ({exc}); centre method used")
         else:
@@ -869,6 +906,7 @@ def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_norma
                        rms=float(np.sqrt(np.mean(r_res**2))), cylinder=cyl, plane=plane,
                        tilt_deg=cyl.tilt_deg, tilt_azimuth_deg=cyl.tilt_bearing_deg,
                        coverage=_side_coverage(cyl, side[s_in]), radius_fitted=r_free,
+                       radius_used=cyl.radius,
                        n_side=int(s_in.sum()), n_top=int(t_in.sum()), top_coverage=None)
     if "x" not in out:
         if centre_result is None:

@@ -89,10 +89,11 @@ def _cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.
 
 
 def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
-                percentile: float = 10.0) -> GridSurface:
+                percentile: float = 10.0, ground_band: float = 0.3,
+                low_cut: float = 1.0) -> GridSurface:
     """A robust local seabed surface that ignores structures narrower than ``window``.
 
-    Per ``cell`` the ``percentile`` of z; a 3 x 3 median removes lone spikes; a grey
+    Per ``cell`` the ``percentile`` of z (spikes far below the cell median ignored); a 3 x 3 median removes lone spikes; a grey
     opening (erosion then dilation) over ``window`` m removes whatever stands on the
     seabed and is narrower than the window (piles, reefs, boulders) while keeping slopes
     and sand waves longer than it; empty cells take their nearest neighbour's value.
@@ -107,6 +108,11 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
         largest pile diameter or reef footprint.
     percentile : float
         Per-cell z percentile, 0-100; default 10 (the seabed is the low part).
+    ground_band : float
+        Soundings within this distance (m) of the opened surface are ground; default 0.3.
+    low_cut : float
+        Soundings more than this (m) below their cell's median are ignored (multipath
+        spikes); default 1.0.
     """
     pts = check_points(points, minimum=3)
     for name, v in (("cell", cell), ("window", window)):
@@ -118,13 +124,25 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     ij = np.floor((pts[:, :2] - lo) / cell).astype(np.int64)
     nx, ny = int(ij[:, 0].max()) + 1, int(ij[:, 1].max()) + 1
     key = ij[:, 0] * ny + ij[:, 1]
-    grid = _cell_percentile(key, pts[:, 2], percentile, nx * ny).reshape(nx, ny)
+    # multipath spikes lie metres below the seabed: in a sparse cell the low percentile
+    # would pick one, so only points at most ``low_cut`` below the cell median count
+    median = _cell_percentile(key, pts[:, 2], 50.0, nx * ny)
+    sane = pts[:, 2] >= median[key] - low_cut
+    grid = _cell_percentile(key[sane], pts[sane, 2], percentile, nx * ny).reshape(nx, ny)
     observed = np.isfinite(grid)
     filled = _fill_nearest(grid)
     filled = ndimage.median_filter(filled, size=3, mode="nearest")
     w = max(3, int(math.ceil(window / cell)) | 1)
     opened = ndimage.grey_opening(filled, size=(w, w), mode="nearest")
-    return GridSurface(float(lo[0]), float(lo[1]), cell, opened, observed, window, percentile)
+    # the opening shaves crests and the low percentile sits under the noise: re-estimate
+    # each cell from the soundings close to the opened surface (the ground), by median
+    first = GridSurface(float(lo[0]), float(lo[1]), cell, opened, observed, window, percentile)
+    h = first.height_above(pts)
+    ground = np.abs(h) <= ground_band
+    med = _cell_percentile(key[ground], pts[ground, 2], 50.0, nx * ny).reshape(nx, ny)
+    refined = np.where(np.isfinite(med), med, opened)
+    refined = ndimage.median_filter(refined, size=3, mode="nearest")
+    return GridSurface(float(lo[0]), float(lo[1]), cell, refined, observed, window, percentile)
 
 
 def _fill_nearest(grid: np.ndarray) -> np.ndarray:
@@ -190,11 +208,18 @@ def ransac_plane(points: np.ndarray, *, threshold: float = 0.5, confidence: floa
     local = pts - shift
     res = msac(local, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold,
                loss=loss, max_trials=max_trials, confidence=confidence, seed=seed,
-               refine=lambda rows: Plane.fit(rows))
+               refine=lambda rows, _m: Plane.fit(rows))
     if res.model is None:
         raise NotEnoughPointsError("ransac_plane: no plane could be fitted (degenerate points)")
-    plane = Plane(res.model.point + shift, res.model.normal)
-    r = plane.residuals(pts[res.inliers])
-    return PlaneSeabed(plane, res.inliers, res.inlier_ratio, res.trials,
-                       ransac_trials(res.inlier_ratio, 3, confidence), threshold,
+    model, inliers = res.model, res.inliers
+    for _ in range(3):  # final least-squares polish on the inliers (counting alone tilts it)
+        polished = Plane.fit(local[inliers])
+        if polished is None:
+            break
+        model, inliers = polished, np.abs(polished.residuals(local)) <= threshold
+    ratio = float(inliers.sum()) / len(local)
+    plane = Plane(model.point + shift, model.normal)
+    r = plane.residuals(pts[inliers])
+    return PlaneSeabed(plane, inliers, ratio, res.trials,
+                       ransac_trials(ratio, 3, confidence), threshold,
                        float(np.sqrt(np.mean(r * r))) if len(r) else math.nan)

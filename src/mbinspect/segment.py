@@ -23,14 +23,16 @@ from .errors import NotEnoughPointsError, ParameterError
 __all__ = ["normals", "kmeans", "components", "elevation_window", "otsu_threshold"]
 
 
-def normals(points: np.ndarray, *, k: int = 12, workers: int = -1) -> tuple[np.ndarray, np.ndarray]:
+def normals(points: np.ndarray, *, k: int = 16, workers: int = -1) -> tuple[np.ndarray, np.ndarray]:
     """Unit normals by PCA over the ``k`` nearest neighbours, oriented up (n_z >= 0).
 
     Returns
     -------
     normals : ndarray, shape (N, 3)
-    curvature : ndarray, shape (N,)
-        Smallest eigenvalue over the sum (0 = flat), a local roughness measure.
+    planarity : ndarray, shape (N,)
+        ``(l2 - l3) / l1`` of the eigenvalues l1 >= l2 >= l3: near 1 for a clean
+        surface patch, near 0 where the neighbours lie on a line (one ping's beams
+        across a sparse survey) and the normal is not defined.
     """
     pts = np.asarray(points, np.float64)
     n = len(pts)
@@ -46,8 +48,8 @@ def normals(points: np.ndarray, *, k: int = 12, workers: int = -1) -> tuple[np.n
     w, v = np.linalg.eigh(cov)
     nrm = v[:, :, 0]
     nrm = np.where(nrm[:, 2:3] < 0, -nrm, nrm)
-    curv = w[:, 0] / np.maximum(w.sum(axis=1), 1e-300)
-    return nrm, curv
+    planarity = (w[:, 1] - w[:, 0]) / np.maximum(w[:, 2], 1e-300)
+    return nrm, planarity
 
 
 def kmeans(points: np.ndarray, k: int, *, seed: int = 0, n_init: int = 10

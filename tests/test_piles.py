@@ -1,0 +1,206 @@
+"""The pile pipeline against simulator truth, its failure modes and its bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from mbinspect.cli import main
+from mbinspect.errors import DataError, InputError, ParameterError
+from mbinspect.io import write
+from mbinspect.piles import (
+    Design,
+    locate_piles,
+    read_design,
+    separate_piles,
+    split_top_side,
+    stable_order,
+)
+from mbinspect.simulate import LABELS, simulate
+
+
+def _errors(result, sim):
+    truth = {p["id"]: p for p in sim.truth["piles"]}
+    tsp = {(s["a"], s["b"]): s["distance"] for s in sim.truth["spacings"]}
+    centre = [math.hypot(p.x - truth[p.id]["x"], p.y - truth[p.id]["y"]) for p in result.piles]
+    spacing = [abs(s.distance - tsp[(s.a, s.b)]) for s in result.spacings]
+    return np.array(centre), np.array(spacing), truth
+
+
+def test_intersection_method_reaches_a_centimetre(jacket_small):
+    # a third of the preset's ping density: 1-sigma near 5 mm, so allow up to 1 cm
+    result = locate_piles(jacket_small.cloud, count=4, radius=0.75, seed=1, max_sigma=0.01)
+    centre, spacing, truth = _errors(result, jacket_small)
+    assert [p.id for p in result.piles] == [1, 2, 3, 4]
+    assert centre.max() < 0.01 and spacing.max() < 0.012
+    for p in result.piles:
+        assert p.method == "intersection" and not p.flags
+        assert p.tilt_deg == pytest.approx(truth[p.id]["tilt_deg"], abs=0.2)
+        assert p.z == pytest.approx(truth[p.id]["z"], abs=0.01)
+        assert p.side_coverage_deg > 180 and 0 < p.sigma_xy < 0.01
+    assert len(result.iterations) >= 2
+    # the reported 1-sigma is honest: errors are a few sigma at most
+    assert all(abs(e) < 4 * s.sigma for e, s in zip(spacing, result.spacings, strict=True))
+
+
+def test_same_seed_same_answer(jacket_small):
+    a = locate_piles(jacket_small.cloud, count=4, radius=0.75, seed=3).to_dict()
+    b = locate_piles(jacket_small.cloud, count=4, radius=0.75, seed=3).to_dict()
+    assert a == b
+
+
+def test_centre_method_fails_where_the_paper_says_and_is_flagged():
+    # no lines over the tops: few, one-sided top points
+    sim = simulate("jacket", seed=7, lines="west,east,south,north", ping_spacing=0.15)
+    both = locate_piles(sim.cloud, count=4, radius=0.75, method="both", seed=0)
+    d = both.to_dict()
+    centre_sp = [s for s in d["spacings"] if s["method"] == "centre"]
+    inter_sp = [s for s in d["spacings"] if s["method"] == "intersection"]
+    tsp = {(s["a"], s["b"]): s["distance"] for s in sim.truth["spacings"]}
+    err_c = max(abs(s["distance"] - tsp[(s["a"], s["b"])]) for s in centre_sp)
+    err_i = max(abs(s["distance"] - tsp[(s["a"], s["b"])]) for s in inter_sp)
+    assert err_i < 0.015 < err_c
+    only_centre = locate_piles(sim.cloud, count=4, radius=0.75, method="centre")
+    assert all(p.flags for p in only_centre.piles)
+    assert "methods" in d["piles"][0] and {"centre", "intersection"} <= set(d["piles"][0]["methods"])
+
+
+def test_segmentation_separates_top_and_side(jacket_small):
+    sim = jacket_small
+    pile = sim.truth["piles"][0]
+    m = (sim.labels == LABELS["pile"]) & (sim.ident == 1)
+    pts = sim.cloud.xyz[m]
+    top, side, info = split_top_side(pts, radius=0.75)
+    assert info["window"][0] - 0.1 < pile["z"] < info["window"][1] + 0.1
+    assert np.abs(pts[top, 2] - pile["z"]).max() < 0.15
+    assert (pts[side, 2] < pile["z"] - 0.1).all()
+    paper_top, paper_side, _ = split_top_side(pts, radius=0.75, paper=True)
+    assert paper_top.sum() > 0 and (paper_top | paper_side).sum() <= len(pts)
+
+
+def test_count_larger_than_present_gives_results_for_the_others(jacket_small):
+    result = locate_piles(jacket_small.cloud, count=6, radius=0.75)
+    assert len(result.piles) == 4
+    assert any("only 4 piles found" in w for w in result.warnings)
+    assert not result.ok
+
+
+def test_count_found_from_the_data(jacket_small):
+    result = locate_piles(jacket_small.cloud, radius=0.75)
+    assert len(result.piles) == 4
+
+
+def test_wrong_radius_is_flagged_and_corrected_where_the_data_allow(jacket_small):
+    truth = {p["id"]: p for p in jacket_small.truth["piles"]}
+    fixed = locate_piles(jacket_small.cloud, count=4, radius=0.6, radius_mode="fixed")
+    auto = locate_piles(jacket_small.cloud, count=4, radius=0.6)
+    for res in (fixed, auto):
+        assert all(any("the points show a radius of" in f for f in p.flags) for p in res.piles)
+    err = {name: max(math.hypot(p.x - truth[p.id]["x"], p.y - truth[p.id]["y"]) for p in res.piles)
+           for name, res in (("fixed", fixed), ("auto", auto))}
+    assert err["auto"] < 0.012 < 0.05 < err["fixed"]
+    assert all(p.radius == pytest.approx(0.75, abs=0.01) for p in auto.piles)
+
+
+def test_no_points_above_the_seabed():
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 50, (20000, 2))
+    flat = np.column_stack([xy, -20 + rng.normal(0, 0.02, len(xy))])
+    with pytest.raises(DataError, match="no points stand more than 1.0 m above the seabed"):
+        locate_piles(flat, count=4, radius=0.75)
+
+
+def test_sides_only_from_one_direction_and_tops_only():
+    tops_only = simulate("jacket", seed=2, lines="tops", ping_spacing=0.3)
+    result = locate_piles(tops_only.cloud, count=4, radius=0.75)
+    assert len(result.piles) == 4
+    assert all(p.flags for p in result.piles)  # no side: centre method, flagged
+
+
+def test_design_positions_and_spacings(tmp_path, jacket_small):
+    sim = jacket_small
+    (tmp_path / "pos.csv").write_text("id,x,y\n" + "\n".join(
+        f"{d['id']},{d['x']},{d['y']}" for d in sim.truth["design"]) + "\n")
+    design = read_design(tmp_path / "pos.csv")
+    result = locate_piles(sim.cloud, count=4, radius=0.75, design=design, tolerance=0.2)
+    assert all(s.passed for s in result.spacings)
+    assert result.spacings[0].design == pytest.approx(22.0)
+    (tmp_path / "sp.csv").write_text("a,b,distance\n1,2,22.0\n1,9,22.0\n")
+    result = locate_piles(sim.cloud, count=4, radius=0.75, design=read_design(tmp_path / "sp.csv"))
+    assert any("pile id 9 does not exist" in w for w in result.warnings)
+    assert result.spacings[0].deviation is not None and result.spacings[1].design is None
+
+
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("id,x,y\n1,2,3\n2,abc,3\n", r"line 3, column 2 \(x\): 'abc' is not a number"),
+        ("id,x,y\n1.5,2,3\n", r"line 2, column 1 \(id\): pile id '1.5' is not a whole number"),
+        ("id,x,y\n1,2,3\n1,4,5\n", r"line 3: pile id 1 appears twice"),
+        ("a,b,distance\n1,2,-3\n", r"line 2: distance -3.0 must be positive"),
+        ("id,x,y\n1,2\n", r"line 2: 2 values, expected 3"),
+        ("foo,bar\n1,2\n", r"line 1: header"),
+        ("", r"the design file is empty"),
+    ],
+)
+def test_bad_design_rows_name_the_line(tmp_path, text, pattern):
+    p = tmp_path / "d.csv"
+    p.write_text(text)
+    with pytest.raises(InputError, match=pattern):
+        read_design(p)
+
+
+def test_bad_parameters_are_named(jacket_small):
+    for kw, pattern in (({"radius": -1}, "--radius: -1"), ({"radius": 0.75, "method": "x"}, "--method"),
+                        ({"radius": 0.75, "count": 0}, "--count: 0"),
+                        ({"radius": 0.75, "crop": (5, 5, 1, 1)}, "--crop")):
+        with pytest.raises(ParameterError, match=pattern):
+            locate_piles(jacket_small.cloud, **kw)
+
+
+def test_stable_order_rows_south_to_north():
+    xy = np.array([[22.1, 22.0], [0.0, -0.05], [0.1, 22.1], [22.0, 0.04]])
+    assert stable_order(xy).tolist() == [1, 3, 2, 0]
+
+
+def test_separation_keeps_neighbours_apart(jacket_small):
+    sim = jacket_small
+    m = sim.labels == LABELS["pile"]
+    labels, warnings = separate_piles(sim.cloud.xyz[m], count=4, radius=0.75)
+    for k in range(4):
+        assert len(np.unique(sim.ident[m][labels == k])) == 1
+    assert not warnings
+
+
+def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
+    src = tmp_path / "s.laz"
+    write(jacket_small.cloud, src)
+    design = tmp_path / "design.csv"
+    design.write_text("id,x,y\n" + "\n".join(
+        f"{d['id']},{d['x']},{d['y']}" for d in jacket_small.truth["design"]) + "\n")
+    out = tmp_path / "out"
+    code = main(["piles", str(src), "--count", "4", "--radius", "0.75", "--design", str(design),
+                 "--out", str(out), "--method", "both", "--tolerance", "0.2", "--max-sigma", "0.01"])
+    assert code == 0, capsys.readouterr().err
+    printed = capsys.readouterr().out
+    assert "1-2" in printed and "pass" in printed
+    names = {p.name for p in out.iterdir()}
+    assert {"piles.json", "piles.csv", "spacings.csv", "report.html", "plan.png",
+            "convergence.png", "pile_1.png"} <= names
+    d = json.loads((out / "piles.json").read_text())
+    assert set(d) >= {"piles", "spacings", "iterations", "parameters"}
+    assert {"id", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "method", "n_top", "n_side",
+            "side_coverage_deg", "rms", "sigma_xy", "flags"} <= set(d["piles"][0])
+    page = (out / "report.html").read_text()
+    assert "data:image/png;base64," in page and "http" not in page.replace("http-equiv", "")
+    assert main(["piles", str(src), "--radius", "0.75", "--design", str(tmp_path / "nope.csv"),
+                 "--out", str(tmp_path / "o2")]) == 2
+    assert "nope.csv: no such file" in capsys.readouterr().err
+
+
+def test_design_helper_spacing():
+    d = Design(positions={1: (0.0, 0.0), 2: (3.0, 4.0)})
+    assert d.spacing(1, 2) == 5.0 and d.spacing(1, 3) is None
