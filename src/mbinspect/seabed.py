@@ -93,10 +93,11 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
                 low_cut: float = 1.0) -> GridSurface:
     """A robust local seabed surface that ignores structures narrower than ``window``.
 
-    Per ``cell`` the ``percentile`` of z (spikes far below the cell median ignored); a 3 x 3 median removes lone spikes; a grey
-    opening (erosion then dilation) over ``window`` m removes whatever stands on the
-    seabed and is narrower than the window (piles, reefs, boulders) while keeping slopes
-    and sand waves longer than it; empty cells take their nearest neighbour's value.
+    Per ``cell`` the ``percentile`` of z (spikes far below the cell median ignored); a
+    3 x 3 median removes lone spikes; a grey opening (erosion then dilation) over
+    ``window`` m removes whatever stands on the seabed and is narrower than the window
+    (piles, reefs, boulders) while keeping slopes and sand waves longer than it; empty
+    cells take their nearest neighbour's value.
 
     Parameters
     ----------
