@@ -1,0 +1,701 @@
+"""Extract, separate, measure and score artificial reefs, after Shen et al. and past it.
+
+Pipeline (each stage a function of its own):
+
+1. :func:`rough_terrain` - steep, rough terrain (the paper cut the uneven near-shore area
+   away by hand) found from a coarse seabed: slope and roughness per cell.
+2. :func:`denoise` - the paper's radius filter on every point, then a statistical filter on
+   the points above the seabed; each reports what it removed.
+3. :func:`fit_seabed` - the paper's RANSAC plane (0.5 m, N from ln(1-q)/ln(1-P^K), P
+   learnt); where one plane does not fit (slopes, sand waves) a robust local grid surface.
+4. :func:`reef_points` - height above the local seabed over a core threshold, plus the
+   lower parts connected to a core (hysteresis), so feet are kept and seabed is not.
+5. :func:`split_reefs` - a plan raster labelled by its nearest sounding (reef or
+   seabed), its connected parts, and parts larger than one reef (close or touching
+   reefs merged) split by seeded K-means with the count from an area prior; parts
+   smaller than ``min_area`` are other objects.
+6. :func:`measure_reef` - centre, seabed and top elevation, height, area, minimum-area
+   rectangle, outline, solid and envelope volume, point count; reefs grouped.
+7. :func:`extract_reefs` - the whole, with ``method="paper"`` for the paper's plain method
+   (radius filter, one plane, Euclidean clusters), and scoring against a reference list.
+
+Examples
+--------
+>>> from mbinspect.simulate import simulate
+>>> from mbinspect.reefs import extract_reefs
+>>> sim = simulate("reef-field", seed=1, groups="cross1", ping_spacing=0.8)
+>>> result = extract_reefs(sim.cloud)
+>>> len(result.reefs)
+25
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from .errors import DataError, ParameterError
+from .evaluate import Evaluation, match_points
+from .filters import FilterReport, radius_outlier, statistical_outlier
+from .geometry import convex_hull, min_area_rectangle, polygon_area
+from .io import PointCloud, check_points, to_jsonable
+from .seabed import GridSurface, PlaneSeabed, grid_seabed, ransac_plane
+from .segment import components, kmeans
+
+__all__ = [
+    "Reef",
+    "ReefResult",
+    "TerrainMask",
+    "rough_terrain",
+    "denoise",
+    "fit_seabed",
+    "reef_points",
+    "split_reefs",
+    "measure_reef",
+    "extract_reefs",
+    "REEF_METHODS",
+]
+
+#: Extraction methods: ours and the paper's plain one.
+REEF_METHODS = ("local", "paper")
+
+Seabed = GridSurface | PlaneSeabed
+
+
+def _positive(name: str, value: float, *, zero_ok: bool = False) -> None:
+    ok = value >= 0 if zero_ok else value > 0
+    if not (ok and math.isfinite(value)):
+        raise ParameterError(f"{name}: {value} must be {'>= 0' if zero_ok else 'positive'}")
+
+
+# ----------------------------------------------------------------------------- region
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainMask:
+    """Cells of a coarse grid judged too steep or rough for reef extraction."""
+
+    x0: float
+    y0: float
+    cell: float
+    excluded: np.ndarray  # (nx, ny) bool
+    slope_deg: np.ndarray
+    roughness: np.ndarray
+    max_slope_deg: float
+    max_roughness: float
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for points that fall in an excluded cell."""
+        p = np.asarray(points, np.float64)
+        i = np.floor((p[:, 0] - self.x0) / self.cell).astype(np.int64)
+        j = np.floor((p[:, 1] - self.y0) / self.cell).astype(np.int64)
+        nx, ny = self.excluded.shape
+        ok = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        out = np.zeros(len(p), dtype=bool)
+        out[ok] = self.excluded[i[ok], j[ok]]
+        return out
+
+    @property
+    def excluded_area(self) -> float:
+        return float(self.excluded.sum()) * self.cell**2
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"excluded_area": self.excluded_area, "cell": self.cell,
+                "max_slope_deg": self.max_slope_deg, "max_roughness": self.max_roughness,
+                "excluded_cells": int(self.excluded.sum())}
+
+
+def rough_terrain(points: np.ndarray, *, cell: float = 2.0, window: float = 10.0,
+                  max_slope_deg: float = 15.0, max_roughness: float = 0.25,
+                  min_area: float = 100.0) -> TerrainMask:
+    """Steep or rough terrain: cells of a coarse seabed whose slope or roughness is too high.
+
+    Roughness is the RMS of the soundings about the coarse surface within ±1 m of it
+    (reefs stand higher and do not count). Excluded patches smaller than ``min_area`` m²
+    are kept (a lone steep cell is a reef's flank or a sand-wave lee, not a shore).
+    """
+    pts = check_points(points, minimum=10)
+    _positive("--max-slope", max_slope_deg)
+    _positive("--max-roughness", max_roughness)
+    surf = grid_seabed(pts, cell=cell, window=window)
+    gx, gy = np.gradient(surf.z, cell)
+    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    h = surf.height_above(pts)
+    near = np.abs(h) <= 1.0
+    ij = np.floor((pts[near, :2] - [surf.x0, surf.y0]) / cell).astype(np.int64)
+    nx, ny = surf.z.shape
+    ij = np.clip(ij, 0, [nx - 1, ny - 1])
+    key = ij[:, 0] * ny + ij[:, 1]
+    n = np.bincount(key, minlength=nx * ny)
+    s2 = np.bincount(key, weights=h[near] ** 2, minlength=nx * ny)
+    rough = np.sqrt(s2 / np.maximum(n, 1)).reshape(nx, ny)
+    bad = ((slope > max_slope_deg) | (rough > max_roughness)) & surf.observed
+    lab, k = ndimage.label(bad)
+    if k:
+        sizes = ndimage.sum(bad, lab, index=np.arange(1, k + 1)) * cell * cell
+        bad = np.isin(lab, 1 + np.flatnonzero(sizes >= min_area))
+    return TerrainMask(surf.x0, surf.y0, cell, bad, slope, rough, max_slope_deg, max_roughness)
+
+
+# ----------------------------------------------------------------------------- stages
+
+
+def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
+            ) -> tuple[np.ndarray, FilterReport]:
+    """The paper's radius filter: noise if ``<= min_neighbors`` neighbours within ``radius`` m."""
+    keep = radius_outlier(points, radius=radius, min_neighbors=min_neighbors)
+    return keep, FilterReport("radius", len(keep), int((~keep).sum()),
+                              {"radius": radius, "min_neighbors": min_neighbors})
+
+
+def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5,
+               confidence: float = 0.99, cell: float = 0.5, window: float = 6.0,
+               max_plane_rms: float = 0.12, sample: int = 200_000, seed: int = 0
+               ) -> tuple[Seabed, dict[str, Any]]:
+    """The seabed under every point.
+
+    Parameters
+    ----------
+    mode : {"auto", "plane", "grid"}
+        ``plane`` is the paper's RANSAC plane; ``grid`` the robust local surface; ``auto``
+        the plane when it fits (RMS of its ground points within ``max_plane_rms`` m of
+        the plane), else the grid.
+    threshold, confidence : float
+        The paper's distance threshold D (0.5 m) and q (0.99).
+    cell, window : float
+        Grid cell and opening window (m); the window must exceed a reef's footprint.
+    max_plane_rms : float
+        Largest RMS (m) of the ground about the plane for ``auto`` to keep the plane.
+    sample : int
+        RANSAC runs on at most this many points (seeded), then scores all.
+
+    Returns
+    -------
+    seabed, info : the surface (``elevation``, ``height_above``) and a JSON-ready summary,
+        including the RMS of the ground soundings about the chosen surface.
+    """
+    if mode not in ("auto", "plane", "grid"):
+        raise ParameterError(f"--seabed: {mode!r} is not auto, plane or grid")
+    pts = check_points(points, minimum=10)
+    info: dict[str, Any] = {}
+    plane = None
+    if mode in ("auto", "plane"):
+        rng = np.random.default_rng(seed)
+        sub = pts if len(pts) <= sample else pts[rng.choice(len(pts), sample, replace=False)]
+        plane = ransac_plane(sub, threshold=threshold, confidence=confidence, seed=seed)
+        h = plane.height_above(pts)
+        ground = np.abs(h) <= 0.3
+        rms = float(np.sqrt(np.mean(h[ground] ** 2))) if ground.any() else math.inf
+        info["plane"] = {**plane.to_dict(), "ground_rms": rms,
+                         "inlier_ratio_all": float(np.mean(np.abs(h) <= threshold))}
+        if mode == "plane" or rms <= max_plane_rms:
+            info.update(method="plane", residual_rms=rms)
+            return plane, info
+    grid = grid_seabed(pts, cell=cell, window=window)
+    h = grid.height_above(pts)
+    ground = np.abs(h) <= 0.3
+    rms = float(np.sqrt(np.mean(h[ground] ** 2))) if ground.any() else math.inf
+    info.update(method="grid", residual_rms=rms, grid=grid.to_dict())
+    if plane is not None:
+        info["why"] = (f"the plane leaves a ground RMS of {info['plane']['ground_rms']:.3f} m "
+                       f"> {max_plane_rms} m (slope or sand waves)")
+    return grid, info
+
+
+def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
+                foot_height: float = 0.15, link: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Reef points: above ``min_height`` m over the seabed, plus connected lower parts.
+
+    A point between ``foot_height`` and ``min_height`` belongs to a reef when it lies
+    within ``link`` m (plan) of a core point (hysteresis): the reef's feet are kept, a
+    lone seabed bump is not.
+
+    Returns
+    -------
+    mask : ndarray of bool, shape (N,)
+    height : ndarray, shape (N,)
+        Height of every point above the seabed.
+    """
+    pts = np.asarray(points, np.float64)
+    _positive("--min-height", min_height)
+    _positive("--foot-height", foot_height)
+    if foot_height > min_height:
+        raise ParameterError(f"--foot-height {foot_height} must not exceed --min-height {min_height}")
+    h = seabed.height_above(pts)
+    core = h > min_height
+    low = (h > foot_height) & ~core
+    mask = core.copy()
+    if core.any() and low.any():
+        tree = cKDTree(pts[core, :2])
+        d, _ = tree.query(pts[low, :2], k=1, distance_upper_bound=link)
+        idx = np.flatnonzero(low)
+        mask[idx[np.isfinite(d)]] = True
+    return mask, h
+
+
+@dataclass(frozen=True, eq=False)
+class _Raster:
+    x0: float
+    y0: float
+    cell: float
+    labels: np.ndarray  # (ny, nx) int: 0 background, 1..K parts
+    nearest: np.ndarray  # (ny, nx) int: index of the nearest sounding (-1 none)
+
+
+def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float, reach: float,
+                          own: float, bridge: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Raster cells near reef points, each labelled by its nearest sounding."""
+    rp = points[is_reef, :2]
+    lo = rp.min(axis=0) - reach
+    hi = rp.max(axis=0) + reach
+    nx = int(math.ceil((hi[0] - lo[0]) / cell))
+    ny = int(math.ceil((hi[1] - lo[1]) / cell))
+    # only cells within ``reach`` of a reef point are candidates
+    occ = np.zeros((ny, nx), dtype=bool)
+    ij = np.floor((rp - lo) / cell).astype(np.int64)
+    occ[np.clip(ij[:, 1], 0, ny - 1), np.clip(ij[:, 0], 0, nx - 1)] = True
+    r = max(1, int(math.ceil(reach / cell)))
+    occ = ndimage.binary_dilation(occ, structure=np.ones((2 * r + 1, 2 * r + 1), bool))
+    cj, ci = np.nonzero(occ)
+    centres = np.column_stack([lo[0] + (ci + 0.5) * cell, lo[1] + (cj + 0.5) * cell])
+    near = (points[:, 0] >= lo[0] - reach) & (points[:, 0] <= hi[0] + reach) & \
+           (points[:, 1] >= lo[1] - reach) & (points[:, 1] <= hi[1] + reach)
+    idx = np.flatnonzero(near)
+    tree = cKDTree(points[idx, :2] - lo)
+    d, k = tree.query(centres - lo, k=1, distance_upper_bound=reach, workers=-1)
+    nearest = np.full((ny, nx), -1, dtype=np.int64)
+    ok = np.isfinite(d)
+    nearest[cj[ok], ci[ok]] = idx[k[ok]]
+    reef = np.zeros((ny, nx), dtype=bool)
+    reef[cj[ok], ci[ok]] = is_reef[idx[k[ok]]]
+    # acoustic shadows behind a reef hold no seabed sounding, so "nearest is a reef point"
+    # alone would spread the reef into its shadow: a reef cell must also lie within
+    # ``own`` m of a reef sounding; enclosed gaps between pings are filled back
+    close = np.zeros((ny, nx), dtype=bool)
+    close[cj[ok], ci[ok]] = d[ok] <= own
+    core = reef & close
+    # bridge the gaps between pings inside a reef; closing does not grow outer edges
+    rc = max(1, int(round(bridge / cell)))
+    yy, xx = np.mgrid[-rc:rc + 1, -rc:rc + 1]
+    disk = xx * xx + yy * yy <= rc * rc
+    closed = ndimage.binary_closing(np.pad(core, rc + 1), structure=disk)[rc + 1:-rc - 1, rc + 1:-rc - 1]
+    filled = ndimage.binary_fill_holes(closed & reef) & reef
+    return filled, nearest, float(lo[0]), float(lo[1])
+
+
+def sampling_gap(points: np.ndarray, *, sample: int = 20_000, seed: int = 0) -> float:
+    """The survey's sampling gap (m): median plan distance to the 6th nearest sounding.
+
+    On a multibeam swath the nearest neighbours lie along the same ping; the 6th is about
+    one ping step away, so this measures the larger (along-track) spacing.
+    """
+    p = np.asarray(points, np.float64)[:, :2]
+    if len(p) < 7:
+        return 0.5
+    if len(p) > sample:
+        p = p[np.random.default_rng(seed).choice(len(p), sample, replace=False)]
+    # a sample is sparser than the data: rescale by the square root of the thinning
+    full = len(points)
+    d = cKDTree(p - p.mean(axis=0)).query(p - p.mean(axis=0), k=7)[0][:, 6]
+    return float(np.median(d) * math.sqrt(len(p) / full))
+
+
+def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
+                reach: float = 0.6, reef_area: float | None = None, min_area: float = 1.0,
+                split_factor: float = 1.5, own: float = 0.15, bridge: float = 0.35, seed: int = 0
+                ) -> tuple[list[np.ndarray], list[np.ndarray], _Raster, float]:
+    """Single reefs from reef points.
+
+    A plan raster of ``cell`` m is labelled by its nearest sounding within ``reach`` m
+    (reef or seabed), which places each outline halfway between reef and seabed
+    soundings; a reef cell must also lie within ``own`` m of a reef sounding (no reef
+    spreads into its acoustic shadow); gaps between pings inside a reef are bridged by a
+    closing of radius ``bridge`` m (which does not grow outer edges) and enclosed gaps
+    filled; its 8-connected parts are candidates. A part whose area exceeds
+    ``split_factor`` times the single-reef area (``reef_area``, or the median area of the
+    parts of at least ``min_area``) holds ``round(area / reef_area)`` reefs and is split by
+    seeded K-means on its cells.
+
+    Returns
+    -------
+    reefs, others : lists of cell-index arrays (flat indices into the raster) of reefs and
+        of objects smaller than ``min_area``
+    raster : the labelled raster
+    reef_area : the single-reef area used (m²)
+    """
+    pts = np.asarray(points, np.float64)
+    if not is_reef.any():
+        empty = _Raster(0.0, 0.0, cell, np.zeros((1, 1), np.int64), np.full((1, 1), -1))
+        return [], [], empty, reef_area or math.nan
+    reef_mask, nearest, x0, y0 = _nearest_label_raster(pts, is_reef, cell=cell, reach=reach,
+                                                       own=own, bridge=bridge)
+    lab, k = ndimage.label(reef_mask, structure=np.ones((3, 3), bool))
+    ny, nx = lab.shape
+    flat = lab.ravel()
+    order = np.argsort(flat, kind="stable")
+    bounds = np.searchsorted(flat[order], np.arange(1, k + 2))
+    parts = [order[bounds[i]:bounds[i + 1]] for i in range(k)]
+    areas = np.array([len(p) for p in parts]) * cell * cell
+    big = areas >= min_area
+    if reef_area is None:
+        reef_area = float(np.median(areas[big])) if big.any() else math.nan
+    reefs: list[np.ndarray] = []
+    others = [p for p, b in zip(parts, big, strict=True) if not b]
+    rng_seed = seed
+    for p, a in zip([p for p, b in zip(parts, big, strict=True) if b], areas[big], strict=True):
+        n = int(round(a / reef_area)) if math.isfinite(reef_area) and a > split_factor * reef_area else 1
+        if n <= 1:
+            reefs.append(p)
+            continue
+        cj, ci = np.divmod(p, nx)
+        xy = np.column_stack([ci, cj]).astype(np.float64) * cell
+        lab_k, _ = kmeans(xy, n, seed=rng_seed)
+        rng_seed += 1
+        reefs += [p[lab_k == j] for j in range(n) if (lab_k == j).any()]
+    labels = np.zeros(ny * nx, dtype=np.int64)
+    for i, p in enumerate(reefs):
+        labels[p] = i + 1
+    return reefs, others, _Raster(x0, y0, cell, labels.reshape(ny, nx), nearest), reef_area
+
+
+# ----------------------------------------------------------------------------- measures
+
+
+@dataclass(frozen=True)
+class Reef:
+    """One reef's measures; ``to_dict()`` is a row of ``reefs.json``."""
+
+    id: int
+    x: float
+    y: float
+    z_seabed: float
+    z_top: float
+    height: float
+    area: float
+    length: float
+    width: float
+    orientation_deg: float
+    volume: float
+    envelope_volume: float
+    n_points: int
+    group: int = 0
+    outline: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
+                                             "length", "width", "orientation_deg", "volume",
+                                             "envelope_volume", "n_points", "group")}
+        d["outline"] = [list(v) for v in self.outline]
+        return to_jsonable(d)  # type: ignore[no-any-return]
+
+
+def _outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.ndarray:
+    """The longest boundary of a cell mask as a polygon (K, 2) in map coordinates."""
+    import contourpy
+
+    m = np.pad(cells_mask.astype(np.float64), 1)
+    gen = contourpy.contour_generator(z=m, name="serial")
+    lines = gen.lines(0.5)
+    if not lines:
+        return np.empty((0, 2))
+    line = max(lines, key=len)
+    xy = (np.asarray(line) - 1.0 + 0.5) * cell
+    return np.column_stack([x0 + xy[:, 0], y0 + xy[:, 1]])
+
+
+def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed: Seabed, *,
+                 reef_id: int = 0, is_reef: np.ndarray | None = None) -> Reef:
+    """Measure one reef from its raster cells and the soundings behind them.
+
+    Centre: area centroid of the cells. Top: the median of the reef soundings within
+    0.25 m below their 98th percentile (robust to noise). Height: top minus the seabed
+    at the centre. Area: cells x cell². Length, width, orientation: minimum-area
+    rectangle. Volume: sum over cells of (nearest sounding's z - seabed) x cell².
+    Envelope volume: length x width x height (the reef's "empty volume").
+    """
+    ny, nx = raster.labels.shape
+    cj, ci = np.divmod(cells, nx)
+    c = raster.cell
+    cx = raster.x0 + (ci + 0.5) * c
+    cy = raster.y0 + (cj + 0.5) * c
+    x, y = float(cx.mean()), float(cy.mean())
+    near = raster.nearest.ravel()[cells]
+    pidx = np.unique(near[near >= 0])
+    if is_reef is not None:
+        pidx = pidx[is_reef[pidx]]
+    z = points[pidx, 2] if len(pidx) else np.array([np.nan])
+    hi = np.nanpercentile(z, 98)
+    z_top = float(np.nanmedian(z[z >= hi - 0.25]))
+    z_sea = float(seabed.elevation(np.array([x]), np.array([y]))[0])
+    corners = np.concatenate([np.column_stack([cx + dx, cy + dy])
+                              for dx in (-c / 2, c / 2) for dy in (-c / 2, c / 2)])
+    rect = min_area_rectangle(corners)
+    sea = seabed.elevation(cx, cy)
+    zc = np.where(near >= 0, points[np.maximum(near, 0), 2], sea)
+    volume = float(np.sum(np.maximum(zc - sea, 0.0)) * c * c)
+    height = z_top - z_sea
+    mask = np.zeros((ny, nx), dtype=bool)
+    mask[cj, ci] = True
+    j0, j1, i0, i1 = cj.min(), cj.max() + 1, ci.min(), ci.max() + 1
+    outline = _outline(mask[j0:j1, i0:i1], raster.x0 + i0 * c, raster.y0 + j0 * c, c)
+    return Reef(reef_id, x, y, z_sea, z_top, height, float(len(cells) * c * c), rect.length,
+                rect.width, rect.bearing_deg, volume, rect.length * rect.width * height,
+                int(len(pidx)), outline=tuple(map(tuple, np.round(outline, 3).tolist())))
+
+
+# ----------------------------------------------------------------------------- the whole
+
+
+@dataclass(frozen=True, eq=False)
+class ReefResult:
+    """Everything :func:`extract_reefs` measured; ``to_dict()`` is ``reefs.json``."""
+
+    reefs: tuple[Reef, ...]
+    groups: tuple[dict[str, Any], ...]
+    others: tuple[dict[str, Any], ...]
+    seabed: dict[str, Any]
+    filters: dict[str, Any]
+    evaluation: Evaluation | None
+    parameters: dict[str, Any]
+    warnings: tuple[str, ...] = ()
+    region: TerrainMask | None = field(default=None, repr=False)
+    surface: Any = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        ev = None
+        if self.evaluation is not None:
+            ev = self.evaluation.to_dict()
+            ids = [r.id for r in self.reefs]
+            for m in ev["matches"]:
+                m["reef"] = ids[m.pop("detection")]
+            ev["unmatched_reefs"] = [ids[i] for i in ev.pop("unmatched_detections")]
+        return to_jsonable({  # type: ignore[no-any-return]
+            "reefs": [r.to_dict() for r in self.reefs],
+            "groups": list(self.groups), "others": list(self.others),
+            "seabed": self.seabed, "filters": self.filters, "evaluation": ev,
+            "parameters": self.parameters, "warnings": list(self.warnings),
+            "region": self.region.to_dict() if self.region is not None else None,
+        })
+
+
+def _groups(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
+    if not reefs:
+        return [], []
+    xy = np.array([[r.x, r.y] for r in reefs])
+    lab = components(xy, eps=link, min_points=1)
+    centres = np.array([xy[lab == g].mean(axis=0) for g in range(lab.max() + 1)])
+    order = np.lexsort((centres[:, 0], -np.round(centres[:, 1] / max(link, 1e-9))))
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    gid = [int(rank[g]) + 1 for g in lab]
+    groups = []
+    for g in range(1, len(order) + 1):
+        members = [r for r, k in zip(reefs, gid, strict=True) if k == g]
+        outline = np.concatenate([np.asarray(m.outline) if m.outline else np.array([[m.x, m.y]])
+                                  for m in members])
+        hull = convex_hull(outline)
+        groups.append({"id": g, "count": len(members),
+                       "x": float(np.mean([m.x for m in members])),
+                       "y": float(np.mean([m.y for m in members])),
+                       "area": polygon_area(hull) if len(hull) >= 3 else 0.0,
+                       "reef_area": float(sum(m.area for m in members)),
+                       "mean_height": float(np.mean([m.height for m in members]))})
+    return gid, groups
+
+
+def extract_reefs(
+    data: PointCloud | np.ndarray,
+    *,
+    method: str = "local",
+    reference: tuple[np.ndarray, tuple[Any, ...]] | None = None,
+    tolerance: float = 1.5,
+    crop: tuple[float, float, float, float] | np.ndarray | None = None,
+    exclude_rough: bool = True,
+    max_slope_deg: float = 15.0,
+    max_roughness: float = 0.25,
+    noise_radius: float = 0.5,
+    noise_neighbors: int = 3,
+    statistical_k: int = 8,
+    statistical_ratio: float = 3.0,
+    seabed: str = "auto",
+    plane_threshold: float = 0.5,
+    confidence: float = 0.99,
+    max_plane_rms: float = 0.12,
+    seabed_cell: float = 0.5,
+    seabed_window: float = 6.0,
+    min_height: float = 0.3,
+    foot_height: float = 0.15,
+    cell: float = 0.1,
+    reef_area: float | None = None,
+    min_area: float = 1.0,
+    group_link: float = 12.0,
+    cluster_eps: float = 0.5,
+    seed: int = 0,
+    progress: Callable[[float], None] | None = None,
+) -> ReefResult:
+    """Extract, separate and measure artificial reefs; score them against a reference.
+
+    Parameters
+    ----------
+    data : PointCloud or ndarray (N, 3)
+    method : {"local", "paper"}
+        Ours, or the paper's plain method: radius filter, one RANSAC plane (its outliers
+        are reef points), Euclidean clusters of ``cluster_eps`` m as reefs.
+    reference : (positions (R, 2), ids), optional
+        Reference reef positions (:func:`mbinspect.evaluate.read_reference`).
+    tolerance : float
+        Matching distance (m); default 1.5.
+    crop : (xmin, ymin, xmax, ymax) or ndarray (K, 2), optional
+    exclude_rough, max_slope_deg, max_roughness : bool, float, float
+        Exclude steep (deg) or rough (RMS m) terrain automatically (:func:`rough_terrain`).
+    noise_radius, noise_neighbors : float, int
+        The paper's radius filter: noise if ``<= n`` neighbours within ``r`` m (0.5, 3).
+    statistical_k, statistical_ratio : int, float
+        Statistical filter on the points above the seabed (0 disables).
+    seabed : {"auto", "plane", "grid"}
+        See :func:`fit_seabed`.
+    plane_threshold, confidence, max_plane_rms : float
+        The paper's RANSAC D (0.5 m) and q (0.99); the plane is kept under ``auto`` while
+        the ground RMS about it is within ``max_plane_rms`` m.
+    seabed_cell, seabed_window : float
+        Local seabed grid (m).
+    min_height, foot_height : float
+        Reef core and foot thresholds above the seabed (m).
+    cell : float
+        Plan raster cell (m) for footprints.
+    reef_area : float, optional
+        Expected single-reef footprint (m²); learnt from the data when None.
+    min_area : float
+        Objects smaller than this (m²) are other objects, not reefs; default 1.0.
+    group_link : float
+        Reefs closer than this (m, centre to centre, chained) form a group.
+    cluster_eps : float
+        The paper's Euclidean clustering distance (m), ``method="paper"`` only.
+    seed : int
+
+    Returns
+    -------
+    ReefResult
+    """
+    if method not in REEF_METHODS:
+        raise ParameterError(f"--method: {method!r} is not one of {', '.join(REEF_METHODS)}")
+    for name, v in (("--tolerance", tolerance), ("--noise-radius", noise_radius),
+                    ("--plane-threshold", plane_threshold), ("--cell", cell),
+                    ("--min-area", min_area), ("--group-link", group_link),
+                    ("--seabed-cell", seabed_cell), ("--seabed-window", seabed_window),
+                    ("--cluster-eps", cluster_eps)):
+        _positive(name, v)
+    if noise_neighbors < 0:
+        raise ParameterError(f"--noise-neighbors: {noise_neighbors} must be >= 0")
+    if reef_area is not None:
+        _positive("--reef-area", reef_area)
+    report = progress or (lambda f: None)
+    params = {k: v for k, v in locals().items()
+              if isinstance(v, (int, float, str, bool, type(None))) and k not in ("report",)}
+    cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
+    warnings: list[str] = []
+    if crop is not None:
+        from .piles import _crop_mask
+
+        cloud = cloud.subset(_crop_mask(cloud.xyz, crop))
+    pts = check_points(cloud.xyz, minimum=10)
+    params["n_points"] = len(pts)
+    filters: dict[str, Any] = {}
+    keep, rep = denoise(pts, radius=noise_radius, min_neighbors=noise_neighbors)
+    filters["radius"] = rep.to_dict()
+    report(0.25)
+    region = None
+    if exclude_rough and method == "local":
+        region = rough_terrain(pts[keep], max_slope_deg=max_slope_deg, max_roughness=max_roughness)
+        out = region.contains(pts) & keep
+        filters["rough_terrain"] = {"n_removed": int(out.sum()), **region.to_dict()}
+        keep &= ~out
+    kept = pts[keep]
+    if len(kept) < 10:
+        raise DataError("fewer than 10 soundings left after filtering; nothing to extract")
+    report(0.35)
+    surf, seabed_info = fit_seabed(kept, mode="plane" if method == "paper" else seabed,
+                                   threshold=plane_threshold, confidence=confidence,
+                                   cell=seabed_cell, window=seabed_window,
+                                   max_plane_rms=max_plane_rms, seed=seed)
+    report(0.55)
+    h_all = surf.height_above(kept)
+    if np.mean(np.abs(h_all) <= 0.3) < 0.3:
+        warnings.append(f"only {100 * np.mean(np.abs(h_all) <= 0.3):.0f} % of the soundings lie on "
+                        "the fitted seabed: is there a seabed in this cloud?")
+    if method == "paper":
+        is_reef = np.abs(h_all) > plane_threshold
+        is_reef &= h_all > 0
+    else:
+        is_reef, _ = reef_points(kept, surf, min_height=min_height, foot_height=foot_height)
+        if statistical_k > 0 and is_reef.sum() > statistical_k:
+            idx = np.flatnonzero(is_reef)
+            ok = statistical_outlier(kept[idx], k=statistical_k, std_ratio=statistical_ratio)
+            is_reef[idx[~ok]] = False
+            filters["statistical"] = FilterReport(
+                "statistical", len(idx), int((~ok).sum()),
+                {"k": statistical_k, "std_ratio": statistical_ratio}).to_dict()
+    report(0.7)
+    reefs: list[Reef] = []
+    others: list[dict[str, Any]] = []
+    if is_reef.any():
+        if method == "paper":
+            reefs, others = _paper_clusters(kept, is_reef, surf, eps=cluster_eps, min_area=min_area)
+            used_area = math.nan
+        else:
+            parts, small, raster, used_area = split_reefs(kept, is_reef, cell=cell, reef_area=reef_area,
+                                                          min_area=min_area, seed=seed)
+            reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
+            for p in small:
+                o = measure_reef(kept, p, raster, surf, is_reef=is_reef)
+                others.append({"x": o.x, "y": o.y, "height": o.height, "area": o.area,
+                               "z_top": o.z_top, "n_points": o.n_points})
+        params["reef_area_used"] = used_area
+    # stable ids: rows from north to south, west to east within a row (reading order)
+    order = sorted(range(len(reefs)), key=lambda i: (-round(reefs[i].y / 3.0), reefs[i].x))
+    reefs = [reefs[i] for i in order]
+    gid, groups = _groups(reefs, group_link)
+    reefs = [Reef(**{**r.__dict__, "id": i + 1, "group": g}) for i, (r, g) in
+             enumerate(zip(reefs, gid, strict=True))]
+    evaluation = None
+    if reference is not None:
+        ref_xy, ref_ids = reference
+        evaluation = match_points(np.array([[r.x, r.y] for r in reefs]).reshape(-1, 2), ref_xy,
+                                  tolerance=tolerance, reference_ids=ref_ids)
+        if reefs and len(ref_xy) and evaluation.tp == 0:
+            warnings.append("no reef matches any reference position within "
+                            f"{tolerance} m: is the reference in another coordinate frame?")
+    report(1.0)
+    return ReefResult(tuple(reefs), tuple(groups), tuple(others), seabed_info, filters,
+                      evaluation, params, tuple(warnings), region, surf)
+
+
+def _paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, eps: float,
+                    min_area: float) -> tuple[list[Reef], list[dict[str, Any]]]:
+    """The paper's individual reefs: Euclidean clusters of the off-plane points."""
+    idx = np.flatnonzero(is_reef)
+    lab = components(points[idx], eps=eps, min_points=5)
+    reefs, others = [], []
+    for k in range(lab.max() + 1 if len(lab) else 0):
+        p = points[idx[lab == k]]
+        hull = convex_hull(p[:, :2])
+        area = abs(polygon_area(hull)) if len(hull) >= 3 else 0.0
+        x, y = p[:, :2].mean(axis=0)
+        z_sea = float(seabed.elevation(np.array([x]), np.array([y]))[0])
+        z_top = float(p[:, 2].max())
+        rect = min_area_rectangle(p[:, :2])
+        if area < min_area:
+            others.append({"x": float(x), "y": float(y), "height": z_top - z_sea, "area": area,
+                           "z_top": z_top, "n_points": len(p)})
+            continue
+        h = z_top - z_sea
+        reefs.append(Reef(0, float(x), float(y), z_sea, z_top, h, area, rect.length, rect.width,
+                          rect.bearing_deg, area * h, rect.length * rect.width * h, len(p),
+                          outline=tuple(map(tuple, np.round(hull, 3).tolist()))))
+    return reefs, others
