@@ -67,7 +67,7 @@ class Evaluation:
     def to_dict(self) -> dict[str, Any]:
         e = self.position_errors()
         ids = self.reference_ids or tuple(range(1, 10**9))
-        return to_jsonable({  # type: ignore[no-any-return]
+        return to_jsonable({
             "tp": self.tp, "fp": self.fp, "fn": self.fn, "tolerance": self.tolerance,
             "correctness": self.correctness, "completeness": self.completeness, "f1": self.f1,
             "position_error": {

@@ -392,7 +392,7 @@ class Reef:
                                              "length", "width", "orientation_deg", "volume",
                                              "envelope_volume", "n_points", "group")}
         d["outline"] = [list(v) for v in self.outline]
-        return to_jsonable(d)  # type: ignore[no-any-return]
+        return to_jsonable(d)
 
 
 def _outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.ndarray:
@@ -404,7 +404,7 @@ def _outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.nd
     lines = gen.lines(0.5)
     if not lines:
         return np.empty((0, 2))
-    line = max(lines, key=len)
+    line = max(lines, key=lambda ln: len(ln))
     xy = (np.asarray(line) - 1.0 + 0.5) * cell
     return np.column_stack([x0 + xy[:, 0], y0 + xy[:, 1]])
 
@@ -475,7 +475,7 @@ class ReefResult:
             for m in ev["matches"]:
                 m["reef"] = ids[m.pop("detection")]
             ev["unmatched_reefs"] = [ids[i] for i in ev.pop("unmatched_detections")]
-        return to_jsonable({  # type: ignore[no-any-return]
+        return to_jsonable({
             "reefs": [r.to_dict() for r in self.reefs],
             "groups": list(self.groups), "others": list(self.others),
             "seabed": self.seabed, "filters": self.filters, "evaluation": ev,
