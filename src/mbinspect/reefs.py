@@ -111,36 +111,55 @@ class TerrainMask:
                 "excluded_cells": int(self.excluded.sum())}
 
 
-def rough_terrain(points: np.ndarray, *, cell: float = 2.0, window: float = 10.0,
-                  max_slope_deg: float = 15.0, max_roughness: float = 0.25,
-                  min_area: float = 100.0) -> TerrainMask:
-    """Steep or rough terrain: cells of a coarse seabed whose slope or roughness is too high.
+def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float = 15.0,
+                  max_roughness: float = 0.2, min_area: float = 100.0, margin: int = 2,
+                  surface: GridSurface | None = None) -> TerrainMask:
+    """Steep or rough terrain: cells where the seabed itself is too steep or too rough.
 
-    Roughness is the RMS of the soundings about the coarse surface within ±1 m of it
-    (reefs stand higher and do not count). Excluded patches smaller than ``min_area`` m²
-    are kept (a lone steep cell is a reef's flank or a sand-wave lee, not a shore).
+    Both are measured on the robust local seabed surface (which sees through reefs, so a
+    reef group is not "rough"): slope from the surface averaged over ``cell`` m; roughness
+    the larger of the RMS of the surface about its 2 m Gaussian smoothing and the RMS of
+    the soundings within ±0.5 m of the surface (rock relief narrower than the opening). Patches are
+    closed and filled, those smaller than ``min_area`` m² are kept (a lone steep cell is a
+    sand-wave lee, not a shore), and the rest widened by ``margin`` cells.
     """
     pts = check_points(points, minimum=10)
     _positive("--max-slope", max_slope_deg)
     _positive("--max-roughness", max_roughness)
-    surf = grid_seabed(pts, cell=cell, window=window)
-    gx, gy = np.gradient(surf.z, cell)
+    fine = surface if surface is not None else grid_seabed(pts, cell=0.5, window=6.0)
+    f = max(1, int(round(cell / fine.cell)))
+    nx, ny = (fine.z.shape[0] // f) * f, (fine.z.shape[1] // f) * f
+    z = fine.z[:nx, :ny]
+    obs = fine.observed[:nx, :ny]
+    coarse = z.reshape(nx // f, f, ny // f, f).mean(axis=(1, 3))
+    seen = obs.reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)) > 0.5
+    step = fine.cell * f
+    gx, gy = np.gradient(coarse, step)
     slope = np.degrees(np.arctan(np.hypot(gx, gy)))
-    h = surf.height_above(pts)
-    near = np.abs(h) <= 1.0
-    ij = np.floor((pts[near, :2] - [surf.x0, surf.y0]) / cell).astype(np.int64)
-    nx, ny = surf.z.shape
-    ij = np.clip(ij, 0, [nx - 1, ny - 1])
-    key = ij[:, 0] * ny + ij[:, 1]
-    n = np.bincount(key, minlength=nx * ny)
-    s2 = np.bincount(key, weights=h[near] ** 2, minlength=nx * ny)
-    rough = np.sqrt(s2 / np.maximum(n, 1)).reshape(nx, ny)
-    bad = ((slope > max_slope_deg) | (rough > max_roughness)) & surf.observed
+    detail = z - ndimage.gaussian_filter(z, 2.0 / fine.cell, mode="nearest")
+    rough = np.sqrt((detail**2).reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)))
+    # rocks narrower than the opening window vanish from the surface: measure the soundings
+    # too, within +-0.5 m of it (reef tops stand higher and drop out, rock relief does not)
+    h = fine.height_above(pts)
+    near = np.abs(h) <= 0.5
+    ij = np.floor((pts[near, :2] - [fine.x0, fine.y0]) / step).astype(np.int64)
+    ok = (ij[:, 0] >= 0) & (ij[:, 0] < nx // f) & (ij[:, 1] >= 0) & (ij[:, 1] < ny // f)
+    key = ij[ok, 0] * (ny // f) + ij[ok, 1]
+    cnt = np.bincount(key, minlength=(nx // f) * (ny // f))
+    ss = np.bincount(key, weights=h[near][ok] ** 2, minlength=(nx // f) * (ny // f))
+    point_rough = np.sqrt(ss / np.maximum(cnt, 1)).reshape(nx // f, ny // f)
+    rough = np.maximum(rough, np.where(cnt.reshape(nx // f, ny // f) >= 5, point_rough, 0.0))
+    bad = ((slope > max_slope_deg) | (rough > max_roughness)) & seen
+    # one patch of rough ground has gentler cells inside and at its rim: close, fill, widen
+    bad = ndimage.binary_closing(np.pad(bad, 3), structure=np.ones((5, 5), bool))[3:-3, 3:-3]
+    bad = ndimage.binary_fill_holes(bad)
     lab, k = ndimage.label(bad)
     if k:
-        sizes = ndimage.sum(bad, lab, index=np.arange(1, k + 1)) * cell * cell
+        sizes = ndimage.sum(bad, lab, index=np.arange(1, k + 1)) * step * step
         bad = np.isin(lab, 1 + np.flatnonzero(sizes >= min_area))
-    return TerrainMask(surf.x0, surf.y0, cell, bad, slope, rough, max_slope_deg, max_roughness)
+    if margin > 0 and bad.any():
+        bad = ndimage.binary_dilation(bad, structure=np.ones((3, 3), bool), iterations=margin)
+    return TerrainMask(fine.x0, fine.y0, step, bad, slope, rough, max_slope_deg, max_roughness)
 
 
 # ----------------------------------------------------------------------------- stages
@@ -156,7 +175,7 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
 
 def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5,
                confidence: float = 0.99, cell: float = 0.5, window: float = 6.0,
-               max_plane_rms: float = 0.12, sample: int = 200_000, seed: int = 0
+               max_plane_dev: float = 0.15, sample: int = 200_000, seed: int = 0
                ) -> tuple[Seabed, dict[str, Any]]:
     """The seabed under every point.
 
@@ -164,14 +183,14 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
     ----------
     mode : {"auto", "plane", "grid"}
         ``plane`` is the paper's RANSAC plane; ``grid`` the robust local surface; ``auto``
-        the plane when it fits (RMS of its ground points within ``max_plane_rms`` m of
-        the plane), else the grid.
+        the plane when it fits (its 99th-percentile departure from the local surface is
+        within ``max_plane_dev`` m), else the grid.
     threshold, confidence : float
         The paper's distance threshold D (0.5 m) and q (0.99).
     cell, window : float
         Grid cell and opening window (m); the window must exceed a reef's footprint.
-    max_plane_rms : float
-        Largest RMS (m) of the ground about the plane for ``auto`` to keep the plane.
+    max_plane_dev : float
+        Largest departure (m) of the plane from the local surface for ``auto`` to keep it.
     sample : int
         RANSAC runs on at most this many points (seeded), then scores all.
 
@@ -194,17 +213,26 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
         rms = float(np.sqrt(np.mean(h[ground] ** 2))) if ground.any() else math.inf
         info["plane"] = {**plane.to_dict(), "ground_rms": rms,
                          "inlier_ratio_all": float(np.mean(np.abs(h) <= threshold))}
-        if mode == "plane" or rms <= max_plane_rms:
+        if mode == "plane":
             info.update(method="plane", residual_rms=rms)
             return plane, info
     grid = grid_seabed(pts, cell=cell, window=window)
+    if plane is not None:
+        # does one plane fit? compare it with the robust local surface wherever there is data
+        gx, gy = np.nonzero(grid.observed)
+        cx, cy = grid.x0 + (gx + 0.5) * grid.cell, grid.y0 + (gy + 0.5) * grid.cell
+        dev = float(np.percentile(np.abs(plane.elevation(cx, cy) - grid.z[gx, gy]), 99))
+        info["plane"]["deviation_p99"] = dev
+        if dev <= max_plane_dev:
+            info.update(method="plane", residual_rms=info["plane"]["ground_rms"])
+            return plane, info
     h = grid.height_above(pts)
     ground = np.abs(h) <= 0.3
     rms = float(np.sqrt(np.mean(h[ground] ** 2))) if ground.any() else math.inf
     info.update(method="grid", residual_rms=rms, grid=grid.to_dict())
     if plane is not None:
-        info["why"] = (f"the plane leaves a ground RMS of {info['plane']['ground_rms']:.3f} m "
-                       f"> {max_plane_rms} m (slope or sand waves)")
+        info["why"] = (f"the plane departs from the local seabed by {info['plane']['deviation_p99']:.2f} m "
+                       f"(99th percentile) > {max_plane_dev} m: slope changes, sand waves or relief")
     return grid, info
 
 
@@ -518,7 +546,7 @@ def extract_reefs(
     crop: tuple[float, float, float, float] | np.ndarray | None = None,
     exclude_rough: bool = True,
     max_slope_deg: float = 15.0,
-    max_roughness: float = 0.25,
+    max_roughness: float = 0.2,
     noise_radius: float = 0.5,
     noise_neighbors: int = 3,
     statistical_k: int = 8,
@@ -526,7 +554,7 @@ def extract_reefs(
     seabed: str = "auto",
     plane_threshold: float = 0.5,
     confidence: float = 0.99,
-    max_plane_rms: float = 0.12,
+    max_plane_dev: float = 0.15,
     seabed_cell: float = 0.5,
     seabed_window: float = 6.0,
     min_height: float = 0.3,
@@ -560,9 +588,9 @@ def extract_reefs(
         Statistical filter on the points above the seabed (0 disables).
     seabed : {"auto", "plane", "grid"}
         See :func:`fit_seabed`.
-    plane_threshold, confidence, max_plane_rms : float
+    plane_threshold, confidence, max_plane_dev : float
         The paper's RANSAC D (0.5 m) and q (0.99); the plane is kept under ``auto`` while
-        the ground RMS about it is within ``max_plane_rms`` m.
+        it departs from the local surface by at most ``max_plane_dev`` m.
     seabed_cell, seabed_window : float
         Local seabed grid (m).
     min_height, foot_height : float
@@ -623,7 +651,7 @@ def extract_reefs(
     surf, seabed_info = fit_seabed(kept, mode="plane" if method == "paper" else seabed,
                                    threshold=plane_threshold, confidence=confidence,
                                    cell=seabed_cell, window=seabed_window,
-                                   max_plane_rms=max_plane_rms, seed=seed)
+                                   max_plane_dev=max_plane_dev, seed=seed)
     report(0.55)
     h_all = surf.height_above(kept)
     if np.mean(np.abs(h_all) <= 0.3) < 0.3:

@@ -98,6 +98,10 @@ class Seabed:
         Crest-to-trough half height (m), wavelength (m) and crest-normal bearing.
     roughness, roughness_length : float
         RMS (m) and correlation length (m) of random roughness.
+    shore_start, shore_width, shore_slope_deg, shore_roughness : float
+        North of local ``y = shore_start`` the seabed rises at ``shore_slope_deg`` over
+        ``shore_width`` m, then levels off, and grows rocky (RMS ``shore_roughness`` m): the
+        uneven near-shore terrain the reef paper cut away by hand. None (default): no shore.
     extent : float
         Half-size (m) of the square where roughness is defined (flat beyond).
     seed : int
@@ -114,6 +118,10 @@ class Seabed:
     roughness_length: float = 2.0
     extent: float = 200.0
     seed: int = 0
+    shore_start: float | None = None
+    shore_width: float = 30.0
+    shore_slope_deg: float = 20.0
+    shore_roughness: float = 0.4
     _grid: np.ndarray = field(init=False, repr=False, compare=False)
     _cell: float = field(init=False, repr=False, compare=False)
 
@@ -121,13 +129,13 @@ class Seabed:
         cell = max(self.roughness_length / 4.0, 0.25)
         n = int(math.ceil(2 * self.extent / cell)) + 2
         grid = np.zeros((n, n))
-        if self.roughness > 0:
+        if self.roughness > 0 or self.shore_start is not None:
             from scipy.ndimage import gaussian_filter
 
             rng = np.random.default_rng(self.seed)
             grid = gaussian_filter(rng.standard_normal((n, n)), self.roughness_length / cell,
                                    mode="wrap")
-            grid *= self.roughness / max(grid.std(), 1e-12)
+            grid /= max(grid.std(), 1e-12)  # unit RMS; scaled where it is used
         object.__setattr__(self, "_grid", grid)
         object.__setattr__(self, "_cell", cell)
 
@@ -156,16 +164,32 @@ class Seabed:
         gy = ((z01 - z00) * (1 - fu) + (z11 - z10) * fu) / c
         return z, gx, gy
 
+    def _shore(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Shore rise, its y-derivative, and the roughness scale with its y-derivative."""
+        if self.shore_start is None:
+            zero = np.zeros_like(y)
+            return zero, zero, np.full_like(y, self.roughness), zero
+        u = np.maximum(y - self.shore_start, 0.0)
+        g = math.tan(math.radians(self.shore_slope_deg))
+        ramp = np.clip(u / 5.0, 0.0, 1.0)
+        dramp = np.where((u > 0) & (u < 5.0), 1 / 5.0, 0.0)
+        scale = self.roughness + (self.shore_roughness - self.roughness) * ramp
+        rising = (u > 0) & (u < self.shore_width)
+        return (g * np.minimum(u, self.shore_width), np.where(rising, g, 0.0), scale,
+                (self.shore_roughness - self.roughness) * dramp)
+
     def elevation(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         """Seabed elevation (m) at local ``x, y``."""
         x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-        return self._plane_and_waves(x, y)[0] + self._rough(x, y)[0]
+        rise, _, scale, _ = self._shore(y)
+        return self._plane_and_waves(x, y)[0] + scale * self._rough(x, y)[0] + rise
 
     def gradient(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Partial derivatives dz/dx and dz/dy at local ``x, y``."""
         _, gx1, gy1 = self._plane_and_waves(x, y)
-        _, gx2, gy2 = self._rough(x, y)
-        return gx1 + gx2, gy1 + gy2
+        r, gx2, gy2 = self._rough(x, y)
+        _, drise, scale, dscale = self._shore(np.asarray(y, np.float64))
+        return gx1 + scale * gx2, gy1 + scale * gy2 + dscale * r + drise
 
     def to_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}
@@ -812,6 +836,7 @@ class ReefFieldOptions:
     touching_pairs: int = 0  #: pairs moved until they touch
     boulders: int = 8  #: distractor boulders (r 0.25-0.5 m)
     debris: int = 4  #: distractor debris items (< 1 m^2)
+    shore_width: float = 0.0  #: a steep rocky shore rising over this width north of the reefs (0 = none)
     line_spacing: float = 22.0  #: spacing of the parallel survey lines
     ping_spacing: float = 0.55  #: along-track ping spacing
     origin_x: float = 402500.0  #: easting of the field centre
@@ -941,6 +966,11 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
                 break
     xy = np.array([[r.x, r.y] for r in reefs])
     lo, hi = xy.min(axis=0) - 12, xy.max(axis=0) + 12
+    if opt.shore_width > 0:
+        seabed = dataclasses.replace(seabed, shore_start=float(hi[1]) + 3.0,
+                                     shore_width=opt.shore_width)
+        reefs = [make(r.id, r.kind, r.x, r.y, r.bearing_deg, r.group) for r in reefs]
+    survey_hi = hi + np.array([0.0, opt.shore_width])
     boulders: list[Boulder] = []
     debris: list[Box] = []
     for n_items, is_boulder in ((opt.boulders, True), (opt.debris, False)):
@@ -958,7 +988,7 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
                                   rng.uniform(0.3, 0.6), rng.uniform(0.2, 0.5),
                                   rng.uniform(0, 180)))
     lines = []
-    y0, y1 = lo[1] - 10, hi[1] + 10
+    y0, y1 = lo[1] - 10, survey_hi[1] + 10
     n_lines = int(math.ceil((y1 - y0) / opt.line_spacing)) + 1
     for k in range(n_lines):
         y = y0 + k * opt.line_spacing
