@@ -324,6 +324,77 @@ def _cmd_demo(args: argparse.Namespace, rep: Reporter) -> int:
     return code
 
 
+# ----------------------------------------------------------------------------- reefs
+
+
+def _add_reef_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("reefs")
+    g.add_argument("--reference", metavar="CSV", help="reference reef positions: x,y[,id]")
+    g.add_argument("--tolerance", type=float, default=1.5, metavar="M",
+                   help="matching distance to the reference (default 1.5 m)")
+    g.add_argument("--method", choices=["local", "paper"], default="local",
+                   help="ours (local) or the paper's plain method (radius filter, one plane, clusters)")
+    g.add_argument("--crop", type=_floats, metavar="XMIN,YMIN,XMAX,YMAX", help="keep only this box")
+    t = p.add_argument_group("thresholds (defaults follow the paper where it gives them)")
+    t.add_argument("--no-exclude-rough", action="store_true", help="keep steep, rough terrain")
+    t.add_argument("--max-slope", type=float, default=15.0, metavar="DEG", help="steep terrain (15)")
+    t.add_argument("--max-roughness", type=float, default=0.2, metavar="M", help="rough terrain RMS (0.2)")
+    t.add_argument("--noise-radius", type=float, default=0.5, metavar="M", help="radius filter r (0.5)")
+    t.add_argument("--noise-neighbors", type=int, default=3, metavar="N",
+                   help="radius filter: noise if <= N neighbours (3)")
+    t.add_argument("--seabed", choices=["auto", "plane", "grid"], default="auto",
+                   help="RANSAC plane, local grid, or the plane when it fits (auto)")
+    t.add_argument("--plane-threshold", type=float, default=0.5, metavar="M", help="RANSAC D (0.5)")
+    t.add_argument("--min-height", type=float, default=0.3, metavar="M", help="reef core height (0.3)")
+    t.add_argument("--foot-height", type=float, default=0.15, metavar="M", help="reef foot height (0.15)")
+    t.add_argument("--reef-area", type=float, metavar="M2", help="single-reef footprint (default: learnt)")
+    t.add_argument("--min-area", type=float, default=1.0, metavar="M2",
+                   help="smaller objects are not reefs (1.0)")
+    t.add_argument("--group-link", type=float, default=12.0, metavar="M", help="group linking distance (12)")
+    t.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    o = p.add_argument_group("output")
+    o.add_argument("--out", metavar="DIR", help="output folder (default reefs-out)")
+    o.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
+    o.add_argument("--no-figures", action="store_true", help="tables and JSON only")
+
+
+def _cmd_reefs(args: argparse.Namespace, rep: Reporter) -> int:
+    from .evaluate import read_reference
+    from .io import output_dir
+    from .reefs import extract_reefs
+    from .report import write_reef_outputs
+
+    reference = read_reference(args.reference) if args.reference else None
+    cloud = _read_input(args, rep)
+    t = time.perf_counter()
+    result = extract_reefs(
+        cloud, method=args.method, reference=reference, tolerance=args.tolerance, crop=args.crop,
+        exclude_rough=not args.no_exclude_rough, max_slope_deg=args.max_slope,
+        max_roughness=args.max_roughness, noise_radius=args.noise_radius,
+        noise_neighbors=args.noise_neighbors, seabed=args.seabed,
+        plane_threshold=args.plane_threshold, min_height=args.min_height,
+        foot_height=args.foot_height, reef_area=args.reef_area, min_area=args.min_area,
+        group_link=args.group_link, seed=args.seed, progress=rep.progress("reefs"))
+    rep.debug(f"extracted {len(result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
+    out = Path(args.out or "reefs-out")
+    with output_dir(out, overwrite=args.overwrite, inputs=[args.input]) as tmp:
+        write_reef_outputs(result, cloud.xyz, tmp, figures=not args.no_figures)
+    d = result.to_dict()
+    if rep.verbosity >= 0:
+        line = (f"{len(d['reefs'])} reefs in {len(d['groups'])} groups, {len(d['others'])} other "
+                f"objects; seabed: {d['seabed']['method']} (residual {d['seabed']['residual_rms']:.3f} m)")
+        print(line)
+        ev = d["evaluation"]
+        if ev is not None:
+            print(f"against {args.reference}: TP {ev['tp']}, FP {ev['fp']}, FN {ev['fn']}, "
+                  f"correctness {100 * ev['correctness']:.2f} %, completeness "
+                  f"{100 * ev['completeness']:.2f} %")
+    for w in result.warnings:
+        print(f"mbinspect: warning: {w}", file=sys.stderr)
+    rep.info(f"results in {out}/ (report.html, reefs.json, reefs.csv, reefs.geojson)")
+    return 0
+
+
 # ----------------------------------------------------------------------------- parser
 
 
@@ -331,6 +402,7 @@ _EPILOG = """\
 examples:
   mbinspect demo
   mbinspect piles survey.laz --count 4 --radius 0.75 --design design.csv --out piles-out
+  mbinspect reefs field.laz --reference reefs.csv --out reefs-out
   mbinspect simulate jacket --seed 1 --out sim-jacket
   mbinspect info sim-jacket/soundings.xyz
   mbinspect info survey.csv --columns x,y,-,depth --depth-positive --json
@@ -400,6 +472,21 @@ def build_parser() -> argparse.ArgumentParser:
     _add_input(p)
     _add_pile_options(p)
     p.set_defaults(func=_cmd_piles)
+
+    p = sub.add_parser(
+        "reefs", help="extract, separate, measure and score artificial reefs",
+        description="Extract artificial reefs from the seabed, separate them (close and touching "
+                    "ones too), measure each (centre, height, area, size, orientation, volumes), "
+                    "group them and, with --reference, score them (TP/FP/FN, correctness, "
+                    "completeness). Writes reefs.json, reefs.csv, reefs.geojson, figures and "
+                    "report.html.",
+        epilog="examples:\n  mbinspect reefs field.laz --reference reefs.csv --out reefs-out\n"
+               "  mbinspect reefs soundings.xyz --method paper --no-figures",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_input(p)
+    _add_reef_options(p)
+    p.set_defaults(func=_cmd_reefs)
 
     p = sub.add_parser(
         "demo", help="simulate the jacket preset and locate its piles",

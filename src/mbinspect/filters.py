@@ -67,9 +67,9 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     Notes
     -----
     Points in a voxel of side ``r / sqrt(3)`` are all within ``r`` of each other, so a
-    voxel holding more than ``n + 1`` points keeps them all without a search; only the
-    points of sparse voxels are queried. On dense multibeam data that is most of the work
-    saved.
+    voxel holding more than ``n + 1`` points keeps them all without a search; the others
+    ask the KD-tree only for their ``n + 1`` nearest neighbours within ``r`` (not for all of
+    them), which is the same test and much cheaper.
     """
     pts = check_points(points, minimum=0)
     _positive("radius", radius)
@@ -86,9 +86,12 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     keep = counts[inverse] - 1 > min_neighbors
     todo = np.flatnonzero(~keep)
     if len(todo):
-        tree = cKDTree(pts)
-        found = tree.query_ball_point(pts[todo], r=radius, return_length=True, workers=workers)
-        keep[todo] = np.asarray(found) - 1 > min_neighbors
+        # more than n neighbours within r  <=>  the (n+1)-th nearest other point is within r
+        local = pts - pts.mean(axis=0)
+        tree = cKDTree(local)
+        d, _ = tree.query(local[todo], k=min_neighbors + 2, distance_upper_bound=radius,
+                          workers=workers)
+        keep[todo] = np.isfinite(d[:, -1]) if d.ndim == 2 else np.isfinite(d)
     return keep
 
 

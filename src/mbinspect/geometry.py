@@ -53,25 +53,18 @@ def vector_to_bearing(v: np.ndarray, *, axial: bool = False) -> float:
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull of 2-D points, counter-clockwise (monotone chain), shape (K, 2)."""
+    """Convex hull of 2-D points, counter-clockwise, shape (K, 2) (Qhull; fewer than three
+    distinct or collinear points are returned as they are)."""
+    from scipy.spatial import ConvexHull, QhullError
+
     pts = np.unique(np.asarray(points, dtype=np.float64)[:, :2], axis=0)
     if len(pts) < 3:
         return pts
-
-    def half(seq: np.ndarray) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
-        for p in seq:
-            while len(out) >= 2:
-                a, b = out[-2], out[-1]
-                if (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) > 0:
-                    break
-                out.pop()
-            out.append(p)
-        return out
-
-    lower = half(pts)
-    upper = half(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1])
+    try:
+        hull = ConvexHull(pts)
+    except QhullError:
+        return pts
+    return pts[hull.vertices]  # Qhull gives 2-D hull vertices counter-clockwise
 
 
 def polygon_area(poly: np.ndarray) -> float:

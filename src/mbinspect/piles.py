@@ -528,9 +528,11 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     where the axis meets that plane.
 
     ``radius_mode`` "fixed" keeps the prior radius (the paper); "free" fits it; "auto"
-    (default) fits it when the side is scanned over at least ``min_free_coverage_deg``
-    and the fitted radius has a 1-sigma of at most ``max_free_sigma`` m, else keeps the
-    prior. A wrong fixed radius shifts the centre toward the scanned side.
+    (default) fits it when the side is scanned over at least ``min_free_coverage_deg``,
+    the fitted radius has a 1-sigma of at most ``max_free_sigma`` m and it differs from
+    the prior by more than 3 sigma and 5 mm (the data reject the prior); else the prior
+    is kept, which is more precise. A wrong fixed radius shifts the centre toward the
+    scanned side.
 
     Returns
     -------
@@ -566,18 +568,28 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     g = None if groups is None else np.asarray(groups)
 
     def refit(model: Cylinder, r: float | None) -> tuple[Cylinder, np.ndarray, np.ndarray]:
-        sel = np.abs(model.residuals(ls)) <= threshold
-        for _ in range(2):
-            model, cv = fit_cylinder(ls[sel], model, radius=r, z_ref=z_top, f_scale=threshold,
+        # the inlier band follows the noise: 3 robust sigmas of the residuals, at least
+        # ``threshold`` (a fixed band truncates noisier data and hides its spread)
+        band = threshold
+        sel = np.abs(model.residuals(ls)) <= band
+        for _ in range(3):
+            model, cv = fit_cylinder(ls[sel], model, radius=r, z_ref=z_top, f_scale=band,
                                      groups=None if g is None else g[sel])
-            sel = np.abs(model.residuals(ls)) <= threshold
+            res = model.residuals(ls)
+            near = np.abs(res) <= 2.5 * band
+            band = max(threshold, 3.0 * 1.4826 * float(np.median(np.abs(res[near])))) \
+                if near.sum() > 10 else band
+            sel = np.abs(res) <= band
         return model, cv, sel
 
     cyl, cov, inl = refit(cyl0 if radius_mode != "fixed" else Cylinder(cyl0.point, cyl0.axis, radius),
                           None if radius_mode != "fixed" else radius)
     if radius_mode == "auto":
+        # keep the prior unless the data reject it: a free radius costs precision
         r_sigma = math.sqrt(max(float(cov[4, 4]), 0.0)) if cov.shape[0] > 4 else math.inf
-        if _side_coverage(cyl, ls[inl]) < min_free_coverage_deg or not r_sigma <= max_free_sigma:
+        rejected = abs(cyl.radius - radius) > max(3 * r_sigma, 0.005)
+        if (_side_coverage(cyl, ls[inl]) < min_free_coverage_deg or not r_sigma <= max_free_sigma
+                or not rejected):
             cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
     centre = cyl.intersect(plane)
     if centre is None:

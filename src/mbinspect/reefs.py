@@ -96,10 +96,8 @@ class TerrainMask:
         i = np.floor((p[:, 0] - self.x0) / self.cell).astype(np.int64)
         j = np.floor((p[:, 1] - self.y0) / self.cell).astype(np.int64)
         nx, ny = self.excluded.shape
-        ok = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
-        out = np.zeros(len(p), dtype=bool)
-        out[ok] = self.excluded[i[ok], j[ok]]
-        return out
+        # a point just past the grid's edge belongs to the edge cell
+        return self.excluded[np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)]
 
     @property
     def excluded_area(self) -> float:
@@ -128,11 +126,12 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     _positive("--max-roughness", max_roughness)
     fine = surface if surface is not None else grid_seabed(pts, cell=0.5, window=6.0)
     f = max(1, int(round(cell / fine.cell)))
-    nx, ny = (fine.z.shape[0] // f) * f, (fine.z.shape[1] // f) * f
-    z = fine.z[:nx, :ny]
-    obs = fine.observed[:nx, :ny]
+    px, py = (-fine.z.shape[0]) % f, (-fine.z.shape[1]) % f  # pad to whole coarse cells
+    z = np.pad(fine.z, ((0, px), (0, py)), mode="edge")
+    obs = np.pad(fine.observed, ((0, px), (0, py)))
+    nx, ny = z.shape
     coarse = z.reshape(nx // f, f, ny // f, f).mean(axis=(1, 3))
-    seen = obs.reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)) > 0.5
+    seen = obs.reshape(nx // f, f, ny // f, f).any(axis=(1, 3))
     step = fine.cell * f
     gx, gy = np.gradient(coarse, step)
     slope = np.degrees(np.arctan(np.hypot(gx, gy)))
@@ -175,8 +174,8 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
 
 def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5,
                confidence: float = 0.99, cell: float = 0.5, window: float = 6.0,
-               max_plane_dev: float = 0.15, sample: int = 200_000, seed: int = 0
-               ) -> tuple[Seabed, dict[str, Any]]:
+               max_plane_dev: float = 0.15, sample: int = 200_000, seed: int = 0,
+               grid: GridSurface | None = None) -> tuple[Seabed, dict[str, Any]]:
     """The seabed under every point.
 
     Parameters
@@ -193,6 +192,8 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
         Largest departure (m) of the plane from the local surface for ``auto`` to keep it.
     sample : int
         RANSAC runs on at most this many points (seeded), then scores all.
+    grid : GridSurface, optional
+        A local surface already computed from (a superset of) these points, reused.
 
     Returns
     -------
@@ -216,7 +217,8 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
         if mode == "plane":
             info.update(method="plane", residual_rms=rms)
             return plane, info
-    grid = grid_seabed(pts, cell=cell, window=window)
+    if grid is None:
+        grid = grid_seabed(pts, cell=cell, window=window)
     if plane is not None:
         # does one plane fit? compare it with the robust local surface wherever there is data
         gx, gy = np.nonzero(grid.observed)
@@ -461,8 +463,8 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
     hi = np.nanpercentile(z, 98)
     z_top = float(np.nanmedian(z[z >= hi - 0.25]))
     z_sea = float(seabed.elevation(np.array([x]), np.array([y]))[0])
-    corners = np.concatenate([np.column_stack([cx + dx, cy + dy])
-                              for dx in (-c / 2, c / 2) for dy in (-c / 2, c / 2)])
+    hull = convex_hull(np.column_stack([cx, cy]))  # the outer cells decide the rectangle
+    corners = np.concatenate([hull + [dx, dy] for dx in (-c / 2, c / 2) for dy in (-c / 2, c / 2)])
     rect = min_area_rectangle(corners)
     sea = seabed.elevation(cx, cy)
     zc = np.where(near >= 0, points[np.maximum(near, 0), 2], sea)
@@ -510,6 +512,14 @@ class ReefResult:
             "parameters": self.parameters, "warnings": list(self.warnings),
             "region": self.region.to_dict() if self.region is not None else None,
         })
+
+
+def _coverage(points: np.ndarray, cell: float = 1.0) -> float:
+    """Share of the 1 m cells of the points' bounding box that hold a sounding."""
+    lo = points[:, :2].min(axis=0)
+    ij = np.floor((points[:, :2] - lo) / cell).astype(np.int64)
+    n = ij.max(axis=0) + 1
+    return float(len(np.unique(ij[:, 0] * n[1] + ij[:, 1])) / max(int(n[0] * n[1]), 1))
 
 
 def _groups(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
@@ -639,8 +649,17 @@ def extract_reefs(
     filters["radius"] = rep.to_dict()
     report(0.25)
     region = None
+    coverage = _coverage(pts[keep]) if keep.any() else 0.0
+    if coverage < 0.25:
+        warnings.append(f"the soundings cover only {100 * coverage:.0f} % of their extent (1 m cells): "
+                        "is there a seabed in this cloud, or only the objects on it?")
+        exclude_rough = False  # terrain cannot be judged without a seabed
+    shared: GridSurface | None = None
+    if method == "local" and seabed in ("auto", "grid"):
+        shared = grid_seabed(pts[keep], cell=seabed_cell, window=seabed_window)
     if exclude_rough and method == "local":
-        region = rough_terrain(pts[keep], max_slope_deg=max_slope_deg, max_roughness=max_roughness)
+        region = rough_terrain(pts[keep], max_slope_deg=max_slope_deg, max_roughness=max_roughness,
+                               surface=shared)
         out = region.contains(pts) & keep
         filters["rough_terrain"] = {"n_removed": int(out.sum()), **region.to_dict()}
         keep &= ~out
@@ -651,10 +670,11 @@ def extract_reefs(
     surf, seabed_info = fit_seabed(kept, mode="plane" if method == "paper" else seabed,
                                    threshold=plane_threshold, confidence=confidence,
                                    cell=seabed_cell, window=seabed_window,
-                                   max_plane_dev=max_plane_dev, seed=seed)
+                                   max_plane_dev=max_plane_dev, seed=seed, grid=shared)
     report(0.55)
     h_all = surf.height_above(kept)
-    if np.mean(np.abs(h_all) <= 0.3) < 0.3:
+    seabed_info["coverage"] = coverage
+    if coverage >= 0.25 and np.mean(np.abs(h_all) <= 0.3) < 0.3:
         warnings.append(f"only {100 * np.mean(np.abs(h_all) <= 0.3):.0f} % of the soundings lie on "
                         "the fitted seabed: is there a seabed in this cloud?")
     if method == "paper":
@@ -694,6 +714,7 @@ def extract_reefs(
     evaluation = None
     if reference is not None:
         ref_xy, ref_ids = reference
+        params["reference_xy"] = np.asarray(ref_xy).tolist()
         evaluation = match_points(np.array([[r.x, r.y] for r in reefs]).reshape(-1, 2), ref_xy,
                                   tolerance=tolerance, reference_ids=ref_ids)
         if reefs and len(ref_xy) and evaluation.tp == 0:

@@ -1,0 +1,172 @@
+"""The reef pipeline against simulator truth, the paper's method beside it, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mbinspect.cli import main
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.evaluate import match_points, read_reference
+from mbinspect.reefs import extract_reefs, reef_points, rough_terrain
+from mbinspect.seabed import grid_seabed
+from mbinspect.simulate import LABELS, simulate
+
+
+def _reference(sim):
+    return (np.array([[r["x"], r["y"]] for r in sim.truth["reefs"]]),
+            tuple(r["id"] for r in sim.truth["reefs"]))
+
+
+def test_every_reef_found_close_and_touching_pairs_included(reef_small):
+    sim = reef_small
+    res = extract_reefs(sim.cloud, reference=_reference(sim))
+    ev = res.evaluation
+    assert (ev.tp, ev.fp, ev.fn) == (50, 0, 0)
+    truth = {r["id"]: r for r in sim.truth["reefs"]}
+    pairs = sim.truth["close_pairs"]
+    assert any(p["gap"] < 0.01 for p in pairs) and len(pairs) >= 4
+    matched = {sim.truth["reefs"][j]["id"]: res.reefs[i] for i, j, _ in ev.matches}
+    for p in pairs:  # both reefs of every close or touching pair are found, separately
+        assert p["a"] in matched and p["b"] in matched
+        assert matched[p["a"]] is not matched[p["b"]]
+    h_err = [abs(r.height - truth[t].get("height")) for t, r in matched.items()]
+    assert max(h_err) <= 0.1
+    assert ev.position_errors().max() <= 0.3
+    area = np.array([r.area / truth[t]["area"] - 1 for t, r in matched.items()])
+    assert abs(area.mean()) < 0.1
+    assert {r.group for r in res.reefs} == {1, 2}
+    assert res.to_dict()["groups"][0]["count"] == 25
+
+
+def test_the_papers_method_merges_the_touching_pair(reef_small):
+    sim = reef_small
+    paper = extract_reefs(sim.cloud, method="paper", reference=_reference(sim))
+    ours = extract_reefs(sim.cloud, reference=_reference(sim))
+    assert paper.evaluation.fn >= 1 > ours.evaluation.fn
+    assert paper.seabed["method"] == "plane" and paper.seabed["plane"]["trials_needed"] >= 1
+
+
+def test_reef_points_keep_feet_and_leave_the_seabed(reef_small):
+    sim = reef_small
+    from mbinspect.reefs import fit_seabed
+
+    surf, info = fit_seabed(sim.cloud.xyz)
+    mask, _ = reef_points(sim.cloud.xyz, surf)
+    reef = sim.labels == LABELS["reef"]
+    seabed = sim.labels == LABELS["seabed"]
+    assert mask[reef].mean() > 0.85
+    assert mask[seabed].mean() < 0.002
+    assert info["method"] in ("plane", "grid") and info["residual_rms"] < 0.08
+
+
+def test_sand_waves_use_the_local_surface_and_rough_shore_is_excluded():
+    sim = simulate("reef-field", seed=4, groups="cross1", sand_wave_amplitude=0.4, slope_deg=2.0,
+                   shore_width=25.0, ping_spacing=0.8)
+    res = extract_reefs(sim.cloud, reference=_reference(sim))
+    assert res.seabed["method"] == "grid" and "why" in res.seabed
+    assert res.region is not None and res.region.excluded_area > 500
+    assert (res.evaluation.tp, res.evaluation.fp) == (25, 0)
+    kept = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False)
+    assert kept.evaluation.fp > 5  # rocks taken for reefs without the exclusion
+
+
+def test_rough_terrain_ignores_reef_groups(reef_small):
+    mask = rough_terrain(reef_small.cloud.xyz)
+    assert mask.excluded_area == 0.0
+
+
+def test_flat_seabed_without_reefs_is_zero_reefs_not_an_error():
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 60, (60000, 2))
+    pts = np.column_stack([xy, -17.3 + rng.normal(0, 0.03, len(xy))])
+    res = extract_reefs(pts)
+    assert res.reefs == () and res.to_dict()["reefs"] == []
+
+
+def test_cloud_without_seabed_warns(reef_small):
+    # an export of the objects' soundings only: no seabed between them
+    only_reefs = reef_small.cloud.xyz[reef_small.labels == LABELS["reef"]]
+    res = extract_reefs(only_reefs)
+    assert any("is there a seabed" in w for w in res.warnings)
+
+
+def test_reference_in_another_frame_warns(reef_small):
+    ref, ids = _reference(reef_small)
+    res = extract_reefs(reef_small.cloud, reference=(ref + [1000.0, 0.0], ids))
+    assert res.evaluation.tp == 0
+    assert any("another coordinate frame" in w for w in res.warnings)
+
+
+def test_counting_rules_merged_and_split():
+    ref = np.array([[0.0, 0.0], [1.0, 0.0], [10.0, 0.0]])
+    merged = match_points(np.array([[0.5, 0.0], [10.0, 0.1]]), ref, tolerance=1.5)
+    assert (merged.tp, merged.fp, merged.fn) == (2, 0, 1)
+    split = match_points(np.array([[9.8, 0.0], [10.3, 0.0], [0, 0], [1, 0]]), ref, tolerance=1.5)
+    assert (split.tp, split.fp, split.fn) == (3, 1, 0)
+    assert split.correctness == pytest.approx(0.75) and split.completeness == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("x,y,id\n1,2,3\n4,abc,5\n", r"line 3, column 2: 'abc' is not a number"),
+        ("x,y\n1\n", r"line 2: 1 values, expected at least 2"),
+        ("a,b\n1,2\n", r"line 1: header"),
+        ("x,y\n", r"holds no positions"),
+        ("1,2\n3,nan\n", r"line 2, column 2: 'nan' is not finite"),
+    ],
+)
+def test_bad_reference_rows_name_the_line(tmp_path, text, pattern):
+    p = tmp_path / "ref.csv"
+    p.write_text(text)
+    with pytest.raises(InputError, match=pattern):
+        read_reference(p)
+
+
+def test_reference_without_header_or_ids(tmp_path):
+    p = tmp_path / "ref.csv"
+    p.write_text("1.0,2.0\n3.0,4.0\n")
+    xy, ids = read_reference(p)
+    assert xy.tolist() == [[1, 2], [3, 4]] and ids == (1, 2)
+
+
+@pytest.mark.parametrize("kw", [{"min_height": -1}, {"noise_radius": 0}, {"min_area": 0},
+                                {"tolerance": -2}, {"method": "magic"}, {"seabed": "curved"},
+                                {"foot_height": 0.5, "min_height": 0.3}])
+def test_thresholds_that_make_no_sense(reef_small, kw):
+    with pytest.raises(ParameterError):
+        extract_reefs(reef_small.cloud, **kw)
+
+
+def test_grid_seabed_under_reefs(reef_small):
+    surf = grid_seabed(reef_small.cloud.xyz, cell=0.5, window=6.0)
+    for r in reef_small.truth["reefs"][:10]:
+        assert float(surf.elevation(r["x"], r["y"])) == pytest.approx(r["z_seabed"], abs=0.1)
+
+
+def test_cli_reefs_end_to_end(tmp_path, reef_small, capsys):
+    from mbinspect.io import write
+
+    src = tmp_path / "f.laz"
+    write(reef_small.cloud, src)
+    ref = tmp_path / "ref.csv"
+    ref.write_text("x,y,id\n" + "\n".join(f"{x},{y},{i}" for x, y, i in reef_small.reference_rows()) + "\n")
+    out = tmp_path / "out"
+    assert main(["reefs", str(src), "--reference", str(ref), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "TP 50, FP 0, FN 0" in printed
+    names = {p.name for p in out.iterdir()}
+    assert {"reefs.json", "reefs.csv", "reefs.geojson", "report.html", "plan.png", "heights.png"} <= names
+    d = json.loads((out / "reefs.json").read_text())
+    assert set(d) >= {"reefs", "groups", "others", "seabed", "filters", "evaluation", "parameters"}
+    assert {"id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "width", "orientation_deg",
+            "volume", "envelope_volume", "n_points", "group"} <= set(d["reefs"][0])
+    gj = json.loads((out / "reefs.geojson").read_text())
+    assert gj["type"] == "FeatureCollection" and len(gj["features"]) == 50
+    ring = gj["features"][0]["geometry"]["coordinates"][0]
+    assert ring[0] == ring[-1] and len(ring) >= 4
+    assert main(["reefs", str(src), "--min-height", "-1", "--out", str(tmp_path / "o2")]) == 2
+    assert "--min-height: -1.0 must be positive" in capsys.readouterr().err
