@@ -431,7 +431,9 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     if d["others"]:
         sections.append(("Other objects", html_table(d["others"], ["x", "y", "height", "area",
                                                                    "n_points"])))
-    sections.append(("Filters and parameters", f"<pre>{html.escape(json_dumps({'filters': d['filters'], 'seabed': d['seabed'], 'parameters': {k: v for k, v in d['parameters'].items() if k != 'reference_xy'}}))}</pre>"))
+    params = {k: v for k, v in d["parameters"].items() if k != "reference_xy"}
+    listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"], "parameters": params})
+    sections.append(("Filters and parameters", f"<pre>{html.escape(listing)}</pre>"))
     with atomic_path(out / "report.html") as tmp:
         tmp.write_text(html_page(title, sections, images), encoding="utf-8")
     written.append("report.html")
