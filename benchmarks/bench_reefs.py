@@ -1,0 +1,105 @@
+"""Reef extraction speed beside an Open3D pipeline doing the paper's steps, and peak memory.
+
+Run: ``python benchmarks/bench_reefs.py [--sizes 0.3,3] [--memory-10m]``.
+
+For each size (millions of soundings) a ``reef-field`` survey is simulated at the density
+needed, then timed in the same run:
+
+* ours: :func:`mbinspect.reefs.extract_reefs` (filters, terrain, seabed, reefs, measures);
+* ours (paper method): the same library with ``method="paper"``;
+* Open3D (if installed, ``pip install -e .[bench]``): ``remove_radius_outlier`` (r 0.5 m,
+  noise if <= 3 neighbours), ``segment_plane`` (0.5 m, 3 points, 1000 iterations) and
+  ``cluster_dbscan`` (eps 0.5 m, 10 points) on the points off the plane: the paper's steps,
+  as a user would chain them.
+
+``--memory-10m`` reads a 10 M-point NPZ in a fresh process and reports the peak resident
+memory of reading plus extraction.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import best_of, table  # noqa: E402
+from mbinspect.io import write  # noqa: E402
+from mbinspect.reefs import extract_reefs  # noqa: E402
+from mbinspect.simulate import simulate  # noqa: E402
+
+#: ping spacing giving about this many million soundings (256 beams, preset field)
+SPACING = {0.3: 0.75, 1.0: 0.24, 3.0: 0.081, 10.0: 0.0243}
+
+
+def open3d_pipeline(xyz: np.ndarray) -> int:
+    import open3d as o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz - xyz.mean(axis=0)))
+    pcd, _ = pcd.remove_radius_outlier(nb_points=4, radius=0.5)
+    _, inliers = pcd.segment_plane(distance_threshold=0.5, ransac_n=3, num_iterations=1000)
+    reef = pcd.select_by_index(inliers, invert=True)
+    labels = np.asarray(reef.cluster_dbscan(eps=0.5, min_points=10))
+    return int(labels.max() + 1) if len(labels) else 0
+
+
+def memory_run(path: str) -> None:
+    from mbinspect.io import read
+
+    t = time.perf_counter()
+    cloud = read(path)
+    res = extract_reefs(cloud)
+    dt = time.perf_counter() - t
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # KiB -> GiB
+    print(json.dumps({"points": len(cloud), "reefs": len(res.reefs), "seconds": dt, "peak_gib": peak}))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--sizes", default="0.3,3")
+    ap.add_argument("--memory-10m", action="store_true")
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args()
+    rows = []
+    for size in [float(s) for s in args.sizes.split(",")]:
+        sim = simulate("reef-field", seed=0, ping_spacing=SPACING.get(size, 0.75 * 0.3 / size))
+        xyz = sim.cloud.xyz
+        n_true = len(sim.truth["reefs"])
+        ours, res = best_of(lambda c=sim.cloud: extract_reefs(c), args.repeat)
+        paper, res_p = best_of(lambda c=sim.cloud: extract_reefs(c, method="paper"), args.repeat)
+        area = float(np.prod(np.ptp(xyz[:, :2], axis=0)))
+        row = [f"{len(xyz) / 1e6:.2f} M ({len(xyz) / area:.0f} pts/m^2)", ours, f"{len(res.reefs)}/{n_true}",
+               paper, f"{len(res_p.reefs)}/{n_true}"]
+        try:
+            o3d_t, n_o3d = best_of(lambda p=xyz: open3d_pipeline(p), 1)
+            row += [o3d_t, f"{n_o3d}/{n_true}", f"{o3d_t / ours:.1f}x"]
+        except ImportError:
+            row += ["n/a", "", ""]
+        rows.append(row)
+    print(table(["soundings", "ours s", "reefs", "ours (paper method) s", "reefs",
+                 "Open3D s", "clusters", "Open3D / ours"], rows))
+    if args.memory_10m:
+        with tempfile.TemporaryDirectory() as d:
+            sim = simulate("reef-field", seed=0, ping_spacing=SPACING[10.0])
+            path = Path(d) / "ten.npz"
+            write(sim.cloud, path)
+            del sim
+            out = subprocess.run([sys.executable, __file__, "--_memory", str(path)],
+                                 capture_output=True, text=True, check=True)
+            m = json.loads(out.stdout.strip().splitlines()[-1])
+            print(table(["10 M run", "points", "reefs", "seconds", "peak memory GiB"],
+                        [["read + extract", f"{m['points']:,}", m["reefs"], m["seconds"], m["peak_gib"]]]))
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 3 and sys.argv[1] == "--_memory":
+        memory_run(sys.argv[2])
+    else:
+        main()

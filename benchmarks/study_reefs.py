@@ -1,0 +1,83 @@
+"""Reef accuracy study against simulator truth: ours beside the paper's plain method.
+
+Run: ``python benchmarks/study_reefs.py [--seeds 10] [--configs default,...]``. Prints per
+configuration and method: TP, FP, FN summed over seeds, correctness, completeness, how many
+close (< 1 m) or touching pairs had both reefs found separately, the height and centre error
+max, and the footprint area error (mean, share of reefs within 10 %, max).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import table  # noqa: E402
+from mbinspect.reefs import extract_reefs  # noqa: E402
+from mbinspect.simulate import simulate  # noqa: E402
+
+CONFIGS: dict[str, dict] = {
+    "default": {},
+    "slope+sand-waves": {"slope_deg": 2.0, "sand_wave_amplitude": 0.4, "sand_wave_length": 25.0},
+    "single+hollow": {"groups": "cross1,hollow,cross1,hollow"},
+    "touching": {"touching_pairs": 6, "close_pairs": 6},
+    "distractors": {"boulders": 25, "debris": 12},
+    "noise-x2": {"noise_scale": 2.0},
+    "rough-shore": {"shore_width": 30.0},
+}
+
+
+def run_one(args: tuple[str, int]) -> list[dict]:
+    name, seed = args
+    sim = simulate("reef-field", seed=seed, **CONFIGS[name])
+    truth = sim.truth["reefs"]
+    ref = (np.array([[r["x"], r["y"]] for r in truth]), tuple(r["id"] for r in truth))
+    rows = []
+    for method in ("local", "paper"):
+        res = extract_reefs(sim.cloud, method=method, reference=ref, seed=seed)
+        ev = res.evaluation
+        assert ev is not None
+        found = {truth[j]["id"]: i for i, j, _ in ev.matches}
+        pairs = sim.truth["close_pairs"]
+        both = sum(p["a"] in found and p["b"] in found for p in pairs)
+        h = [abs(res.reefs[i].height - truth[j]["height"]) for i, j, _ in ev.matches]
+        a = [res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches]
+        rows.append({"config": name, "method": method, "tp": ev.tp, "fp": ev.fp, "fn": ev.fn,
+                     "pairs": len(pairs), "both": both, "h": h, "c": list(ev.position_errors()), "a": a})
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--configs", default=",".join(CONFIGS))
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    jobs = [(c, s) for c in args.configs.split(",") for s in range(args.seeds)]
+    with ProcessPoolExecutor(args.workers) as pool:
+        results = [r for rows in pool.map(run_one, jobs) for r in rows]
+    out = []
+    for c in args.configs.split(","):
+        for m in ("local", "paper"):
+            rs = [r for r in results if r["config"] == c and r["method"] == m]
+            tp, fp, fn = (sum(r[k] for r in rs) for k in ("tp", "fp", "fn"))
+            h = np.concatenate([r["h"] for r in rs])
+            ce = np.concatenate([r["c"] for r in rs])
+            a = np.concatenate([r["a"] for r in rs])
+            out.append([c, "ours" if m == "local" else "paper", len(rs), tp, fp, fn,
+                        f"{100 * tp / max(tp + fp, 1):.2f}", f"{100 * tp / max(tp + fn, 1):.2f}",
+                        f"{sum(r['both'] for r in rs)}/{sum(r['pairs'] for r in rs)}",
+                        f"{h.max():.3f}", f"{ce.max():.2f}",
+                        f"{100 * a.mean():+.1f} %", f"{100 * np.mean(np.abs(a) <= 0.1):.0f} %",
+                        f"{100 * np.abs(a).max():.0f} %"])
+    print(table(["config", "method", "seeds", "TP", "FP", "FN", "correct %", "complete %",
+                 "close pairs both found", "height err max m", "centre err max m", "area err mean",
+                 "area within 10 %", "area err max"], out))
+
+
+if __name__ == "__main__":
+    main()
