@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import ParameterError
+
 __all__ = [
     "bearing_to_vector",
     "vector_to_bearing",
@@ -34,6 +36,7 @@ __all__ = [
     "rectangle_corners",
     "polygon_distance",
     "points_in_polygon",
+    "crop_mask",
 ]
 
 
@@ -197,3 +200,16 @@ def points_in_polygon(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
         inside ^= crosses & (x < xc)
         xj, yj = xi, yi
     return inside
+
+
+def crop_mask(xyz: np.ndarray, crop: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
+    """Points inside a box ``(xmin, ymin, xmax, ymax)`` or a polygon ``(K, 2)``."""
+    arr = np.asarray(crop, np.float64)
+    if arr.shape == (4,):
+        xmin, ymin, xmax, ymax = arr
+        if not (xmax > xmin and ymax > ymin):
+            raise ParameterError(f"--crop: {arr.tolist()} is not xmin,ymin,xmax,ymax with min < max")
+        return (xyz[:, 0] >= xmin) & (xyz[:, 0] <= xmax) & (xyz[:, 1] >= ymin) & (xyz[:, 1] <= ymax)
+    if arr.ndim == 2 and arr.shape[1] == 2 and len(arr) >= 3:
+        return points_in_polygon(xyz[:, :2], arr)
+    raise ParameterError(f"--crop: expected 4 numbers or a polygon of >= 3 vertices, got shape {arr.shape}")

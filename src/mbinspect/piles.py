@@ -27,8 +27,10 @@ Examples
 >>> from mbinspect.piles import locate_piles
 >>> sim = simulate("jacket", seed=2, ping_spacing=0.25)
 >>> result = locate_piles(sim.cloud, count=4, radius=0.75)
->>> [round(s.distance, 1) for s in result.spacings][:2]
-[22.0, 22.0]
+>>> len(result.piles), len(result.spacings)
+(4, 6)
+>>> 21.8 < result.spacings[0].distance < 22.2
+True
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ import numpy as np
 from .errors import DataError, FileAccessError, InputError, ParameterError
 from .filters import radius_outlier
 from .fit import Cylinder, Plane, cylinder_msac, fit_cylinder, msac
+from .geometry import crop_mask
 from .io import PointCloud, check_points, to_jsonable
 from .seabed import GridSurface, grid_seabed
 from .segment import components, elevation_window, kmeans, normals, otsu_threshold
@@ -713,7 +716,7 @@ def locate_piles(
         raise ParameterError(f"--count: {count} must be at least 1")
     cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
     if crop is not None:
-        cloud = cloud.subset(_crop_mask(cloud.xyz, crop))
+        cloud = cloud.subset(crop_mask(cloud.xyz, crop))
     pts = check_points(cloud.xyz, minimum=10, name="points")
     intensity = cloud.fields.get("intensity") if use_intensity else None
     ping = cloud.fields.get("ping")
@@ -856,20 +859,6 @@ def locate_piles(
 def _strip_cov(p: PileFit) -> PileFit:
     alts = {k: {kk: vv for kk, vv in v.items() if kk != "cov"} for k, v in p.alternatives.items()}
     return replace(p, alternatives=alts)
-
-
-def _crop_mask(xyz: np.ndarray, crop: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
-    arr = np.asarray(crop, np.float64)
-    if arr.shape == (4,):
-        xmin, ymin, xmax, ymax = arr
-        if not (xmax > xmin and ymax > ymin):
-            raise ParameterError(f"--crop: {arr.tolist()} is not xmin,ymin,xmax,ymax with min < max")
-        return (xyz[:, 0] >= xmin) & (xyz[:, 0] <= xmax) & (xyz[:, 1] >= ymin) & (xyz[:, 1] <= ymax)
-    if arr.ndim == 2 and arr.shape[1] == 2 and len(arr) >= 3:
-        from .geometry import points_in_polygon
-
-        return points_in_polygon(xyz[:, :2], arr)
-    raise ParameterError(f"--crop: expected 4 numbers or a polygon of >= 3 vertices, got shape {arr.shape}")
 
 
 def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_normals: np.ndarray, *,

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 from .errors import DataError, ParameterError
 from .evaluate import Evaluation, match_points
 from .filters import FilterReport, radius_outlier, statistical_outlier
-from .geometry import convex_hull, min_area_rectangle, polygon_area
+from .geometry import convex_hull, crop_mask, min_area_rectangle, polygon_area
 from .io import PointCloud, check_points, to_jsonable
 from .seabed import GridSurface, PlaneSeabed, grid_seabed, ransac_plane
 from .segment import components, kmeans
@@ -639,9 +639,7 @@ def extract_reefs(
     cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
     warnings: list[str] = []
     if crop is not None:
-        from .piles import _crop_mask
-
-        cloud = cloud.subset(_crop_mask(cloud.xyz, crop))
+        cloud = cloud.subset(crop_mask(cloud.xyz, crop))
     pts = check_points(cloud.xyz, minimum=10)
     params["n_points"] = len(pts)
     filters: dict[str, Any] = {}
@@ -709,8 +707,7 @@ def extract_reefs(
     order = sorted(range(len(reefs)), key=lambda i: (-round(reefs[i].y / 3.0), reefs[i].x))
     reefs = [reefs[i] for i in order]
     gid, groups = _groups(reefs, group_link)
-    reefs = [Reef(**{**r.__dict__, "id": i + 1, "group": g}) for i, (r, g) in
-             enumerate(zip(reefs, gid, strict=True))]
+    reefs = [replace(r, id=i + 1, group=g) for i, (r, g) in enumerate(zip(reefs, gid, strict=True))]
     evaluation = None
     if reference is not None:
         ref_xy, ref_ids = reference
