@@ -454,28 +454,28 @@ def _chunk_bounds(path: Path, start: int, parts: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
 
 
-def _locate_ascii_error(path: Path, layout: _AsciiLayout) -> str:
-    """Scan the file line by line and describe the first bad line exactly."""
+def _data_lines(path: Path, layout: _AsciiLayout) -> Iterator[tuple[int, list[str]]]:
+    """Each data line of an ASCII file as (1-based line number, cells); slow, for errors."""
     with open(path, encoding="utf-8", errors="replace") as fh:
         for lineno, line in enumerate(fh, start=1):
-            if lineno < layout.first_line:
-                continue
             stripped = line.strip()
-            if not stripped or stripped.startswith("#"):
+            if lineno < layout.first_line or not stripped or stripped.startswith("#"):
                 continue
             cells = _split(stripped, layout.delimiter)
             if layout.trailing and cells and cells[-1] == "":
                 cells = cells[:-1]
-            if len(cells) != layout.ncols:
-                return (
-                    f"{path}, line {lineno}: {len(cells)} columns, expected {layout.ncols} "
-                    "like the lines before"
-                )
-            for col, cell in enumerate(cells, start=1):
-                if not _is_number(cell):
-                    return (
-                        f"{path}, line {lineno}, column {col}: {cell!r} is not a number"
-                    )
+            yield lineno, cells
+
+
+def _locate_ascii_error(path: Path, layout: _AsciiLayout) -> str:
+    """Describe the first bad line exactly (column count or a non-number)."""
+    for lineno, cells in _data_lines(path, layout):
+        if len(cells) != layout.ncols:
+            return (f"{path}, line {lineno}: {len(cells)} columns, expected {layout.ncols} "
+                    "like the lines before")
+        for col, cell in enumerate(cells, start=1):
+            if not _is_number(cell):
+                return f"{path}, line {lineno}, column {col}: {cell!r} is not a number"
     return f"{path}: could not be parsed as a {layout.ncols}-column point file"
 
 
@@ -515,23 +515,14 @@ def _read_ascii(
 
 
 def _locate_nonfinite(path: Path, layout: _AsciiLayout, row: int) -> str:
-    seen = -1
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if lineno < layout.first_line:
-                continue
-            stripped = line.strip()
-            if not stripped or stripped.startswith("#"):
-                continue
-            seen += 1
-            if seen == row:
-                cells = _split(stripped, layout.delimiter)
-                for col, cell in enumerate(cells, start=1):
-                    if _is_number(cell) and not math.isfinite(float(cell)):
-                        return (
-                            f"{path}, line {lineno}, column {col}: {cell!r} is not a "
-                            "finite number; expected a finite value"
-                        )
+    """Name the line and column of the first non-finite value (data row ``row``)."""
+    for seen, (lineno, cells) in enumerate(_data_lines(path, layout)):
+        if seen == row:
+            for col, cell in enumerate(cells, start=1):
+                if _is_number(cell) and not math.isfinite(float(cell)):
+                    return (f"{path}, line {lineno}, column {col}: {cell!r} is not a "
+                            "finite number; expected a finite value")
+            break
     return f"{path}: data row {row + 1} holds a non-finite value"
 
 
