@@ -31,6 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import best_of, table  # noqa: E402
+from mbinspect.filters import radius_outlier  # noqa: E402
 from mbinspect.io import write  # noqa: E402
 from mbinspect.reefs import extract_reefs  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
@@ -68,6 +69,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=2)
     args = ap.parse_args()
     rows = []
+    filter_rows = []
     for size in [float(s) for s in args.sizes.split(",")]:
         sim = simulate("reef-field", seed=0, ping_spacing=SPACING.get(size, 0.75 * 0.3 / size))
         xyz = sim.cloud.xyz
@@ -83,8 +85,22 @@ def main() -> None:
         except ImportError:
             row += ["n/a", "", ""]
         rows.append(row)
+        # the radius filter alone (r 0.5 m, noise if <= 3 neighbours), same points
+        t_f, keep = best_of(lambda p=xyz: radius_outlier(p, radius=0.5, min_neighbors=3), args.repeat)
+        frow = [f"{len(xyz) / 1e6:.2f} M", t_f, f"{(~keep).sum():,}"]
+        try:
+            import open3d as o3d
+
+            pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz - xyz.mean(axis=0)))
+            t_o, (_, kept_idx) = best_of(lambda c=pcd: c.remove_radius_outlier(nb_points=4, radius=0.5), 1)
+            frow += [t_o, f"{len(xyz) - len(kept_idx):,}", f"{t_o / t_f:.1f}x"]
+        except ImportError:
+            frow += ["n/a", "", ""]
+        filter_rows.append(frow)
     print(table(["soundings", "ours s", "reefs", "ours (paper method) s", "reefs",
                  "Open3D s", "clusters", "Open3D / ours"], rows))
+    print(table(["radius filter", "ours s", "removed", "Open3D s", "removed", "Open3D / ours"],
+                filter_rows))
     if args.memory_10m:
         with tempfile.TemporaryDirectory() as d:
             sim = simulate("reef-field", seed=0, ping_spacing=SPACING[10.0])
