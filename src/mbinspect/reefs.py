@@ -174,7 +174,7 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
 
 def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5,
                confidence: float = 0.99, cell: float = 0.5, window: float = 6.0,
-               max_plane_dev: float = 0.15, sample: int = 200_000, seed: int = 0,
+               max_plane_dev: float = 0.08, sample: int = 200_000, seed: int = 0,
                grid: GridSurface | None = None) -> tuple[Seabed, dict[str, Any]]:
     """The seabed under every point.
 
@@ -338,7 +338,8 @@ def sampling_gap(points: np.ndarray, *, sample: int = 20_000, seed: int = 0) -> 
 
 def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
                 reach: float = 0.6, reef_area: float | None = None, min_area: float = 1.0,
-                split_factor: float = 1.5, own: float = 0.15, bridge: float = 0.35, seed: int = 0
+                split_factor: float = 1.5, own: float = 0.15, bridge: float = 0.35,
+                link: float = 0.3, seed: int = 0
                 ) -> tuple[list[np.ndarray], list[np.ndarray], _Raster, float]:
     """Single reefs from reef points.
 
@@ -347,7 +348,8 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     soundings; a reef cell must also lie within ``own`` m of a reef sounding (no reef
     spreads into its acoustic shadow); gaps between pings inside a reef are bridged by a
     closing of radius ``bridge`` m (which does not grow outer edges) and enclosed gaps
-    filled; its 8-connected parts are candidates. A part whose area exceeds
+    filled; parts closer than ``2 * link`` m are one candidate (walls of a hollow reef).
+    A part whose area exceeds
     ``split_factor`` times the single-reef area (``reef_area``, or the median area of the
     parts of at least ``min_area``) holds ``round(area / reef_area)`` reefs and is split by
     seeded K-means on its cells.
@@ -365,7 +367,13 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
         return [], [], empty, reef_area or math.nan
     reef_mask, nearest, x0, y0 = _nearest_label_raster(pts, is_reef, cell=cell, reach=reach,
                                                        own=own, bridge=bridge)
-    lab, k = ndimage.label(reef_mask, structure=np.ones((3, 3), bool))
+    # parts closer than 2 * link belong together (the thin walls of a hollow reef break
+    # up between pings); the footprint stays the undilated cells
+    rl = max(1, int(round(link / cell)))
+    yy, xx = np.mgrid[-rl:rl + 1, -rl:rl + 1]
+    joined = ndimage.binary_dilation(reef_mask, structure=xx * xx + yy * yy <= rl * rl)
+    lab, k = ndimage.label(joined, structure=np.ones((3, 3), bool))
+    lab = np.where(reef_mask, lab, 0)
     ny, nx = lab.shape
     flat = lab.ravel()
     order = np.argsort(flat, kind="stable")
@@ -564,7 +572,7 @@ def extract_reefs(
     seabed: str = "auto",
     plane_threshold: float = 0.5,
     confidence: float = 0.99,
-    max_plane_dev: float = 0.15,
+    max_plane_dev: float = 0.08,
     seabed_cell: float = 0.5,
     seabed_window: float = 6.0,
     min_height: float = 0.3,

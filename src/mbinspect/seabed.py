@@ -141,7 +141,15 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     h = first.height_above(pts)
     ground = np.abs(h) <= ground_band
     med = _cell_percentile(key[ground], pts[ground, 2], 50.0, nx * ny).reshape(nx, ny)
-    refined = np.where(np.isfinite(med), med, opened)
+    # cells without ground (under a structure) take a Gaussian-weighted mean of the ground
+    # cells around them (normalized convolution), not the opened surface, which sits low
+    # on slopes and sand-wave flanks; far from any ground the opened surface stays
+    has = np.isfinite(med)
+    sigma = window / (4.0 * cell)
+    num = ndimage.gaussian_filter(np.where(has, med, 0.0), sigma, mode="nearest")
+    den = ndimage.gaussian_filter(has.astype(np.float64), sigma, mode="nearest")
+    around = np.where(den > 0.05, num / np.maximum(den, 1e-12), opened)
+    refined = np.where(has, med, around)
     refined = ndimage.median_filter(refined, size=3, mode="nearest")
     return GridSurface(float(lo[0]), float(lo[1]), cell, refined, observed, window, percentile)
 
