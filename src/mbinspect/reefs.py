@@ -336,6 +336,58 @@ def sampling_gap(points: np.ndarray, *, sample: int = 20_000, seed: int = 0) -> 
     return float(np.median(d) * math.sqrt(len(p) / full))
 
 
+def _diameter(xy: np.ndarray) -> float:
+    """Largest distance between two of the points (on their convex hull)."""
+    h = convex_hull(xy)
+    if len(h) < 2:
+        return 0.0
+    d = h[:, None, :] - h[None, :, :]
+    return float(np.sqrt((d**2).sum(axis=2)).max())
+
+
+def _merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float,
+                     reef_area: float) -> tuple[list[np.ndarray], np.ndarray]:
+    """Join pairs of fragments that together make one reef.
+
+    A thin wall square to the track can fall between two pings and vanish, so a hollow
+    reef shows as two parallel walls. Two parts, each under 0.6 single-reef areas, whose
+    union is no larger than one reef (area within 1.3 reef areas, diameter within 1.15
+    times the 90th percentile diameter of the single reefs plus one cell; a field may mix
+    kinds of reef) are one reef.
+    """
+    if not math.isfinite(reef_area) or len(parts) < 2:
+        return parts, areas
+    frag = [i for i, a in enumerate(areas) if a < 0.6 * reef_area]
+    single = [i for i, a in enumerate(areas) if 0.7 * reef_area <= a <= 1.3 * reef_area]
+    if len(frag) < 2 or not single:
+        return parts, areas
+
+    def cells_xy(i: int) -> np.ndarray:
+        j, k = np.divmod(parts[i], nx)
+        return np.column_stack([k, j]).astype(np.float64) * cell
+
+    limit = 1.15 * float(np.percentile([_diameter(cells_xy(i)) for i in single], 90)) + cell
+    xy = {i: cells_xy(i) for i in frag}
+    centre = {i: v.mean(axis=0) for i, v in xy.items()}
+    pairs = []
+    for n_a, a in enumerate(frag):
+        for b in frag[n_a + 1:]:
+            if np.hypot(*(centre[a] - centre[b])) > limit or areas[a] + areas[b] > 1.3 * reef_area:
+                continue
+            if _diameter(np.vstack([xy[a], xy[b]])) <= limit:
+                pairs.append((float(np.hypot(*(centre[a] - centre[b]))), a, b))
+    used: set[int] = set()
+    merged = list(parts)
+    for _, a, b in sorted(pairs):
+        if a in used or b in used:
+            continue
+        used.update((a, b))
+        merged[a] = np.concatenate([parts[a], parts[b]])
+        merged[b] = np.empty(0, dtype=parts[b].dtype)
+    out = [p for p in merged if len(p)]
+    return out, np.array([len(p) for p in out]) * cell * cell
+
+
 def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
                 reach: float = 0.6, reef_area: float | None = None, min_area: float = 1.0,
                 split_factor: float = 1.5, own: float = 0.15, bridge: float = 0.35,
@@ -383,6 +435,8 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     big = areas >= min_area
     if reef_area is None:
         reef_area = float(np.median(areas[big])) if big.any() else math.nan
+    parts, areas = _merge_fragments(parts, areas, nx, cell, reef_area)
+    big = areas >= min_area
     reefs: list[np.ndarray] = []
     others = [p for p, b in zip(parts, big, strict=True) if not b]
     rng_seed = seed
