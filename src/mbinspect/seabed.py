@@ -77,15 +77,29 @@ class GridSurface:
                 "z_min": float(self.z.min()), "z_max": float(self.z.max())}
 
 
-def _cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.ndarray:
-    order = np.lexsort((z, key))
-    ks, zs = key[order], z[order]
+def _sort_cells(key: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Order that sorts by cell, then by z (one integer sort: z in millimetres)."""
+    zq = np.round((z - z.min()) * 1000.0).astype(np.int64)
+    return np.argsort(key * (int(zq.max()) + 1) + zq, kind="stable")
+
+
+def _sorted_percentile(ks: np.ndarray, zs: np.ndarray, q: float, size: int) -> np.ndarray:
+    """Per-cell ``q`` percentile of z for arrays already sorted by (cell, z); NaN if empty."""
+    out = np.full(size, np.nan)
+    if len(ks) == 0:
+        return out
     starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
     counts = np.diff(np.r_[starts, len(ks)])
-    pick = starts + np.floor(q / 100.0 * (counts - 1)).astype(np.int64)
-    out = np.full(size, np.nan)
-    out[ks[starts]] = zs[pick]
+    out[ks[starts]] = zs[starts + np.floor(q / 100.0 * (counts - 1)).astype(np.int64)]
     return out
+
+
+def _cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.ndarray:
+    """Per-cell ``q`` percentile of z (cells numbered 0..size-1); NaN where a cell is empty."""
+    if len(key) == 0:
+        return np.full(size, np.nan)
+    order = _sort_cells(key, z)
+    return _sorted_percentile(key[order], z[order], q, size)
 
 
 def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
@@ -127,9 +141,11 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     key = ij[:, 0] * ny + ij[:, 1]
     # multipath spikes lie metres below the seabed: in a sparse cell the low percentile
     # would pick one, so only points at most ``low_cut`` below the cell median count
-    median = _cell_percentile(key, pts[:, 2], 50.0, nx * ny)
-    sane = pts[:, 2] >= median[key] - low_cut
-    grid = _cell_percentile(key[sane], pts[sane, 2], percentile, nx * ny).reshape(nx, ny)
+    order = _sort_cells(key, pts[:, 2])  # one sort serves every percentile below
+    ks, zs = key[order], pts[order, 2]
+    median = _sorted_percentile(ks, zs, 50.0, nx * ny)
+    sane = zs >= median[ks] - low_cut
+    grid = _sorted_percentile(ks[sane], zs[sane], percentile, nx * ny).reshape(nx, ny)
     observed = np.isfinite(grid)
     filled = _fill_nearest(grid)
     filled = ndimage.median_filter(filled, size=3, mode="nearest")
@@ -138,9 +154,8 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     # the opening shaves crests and the low percentile sits under the noise: re-estimate
     # each cell from the soundings close to the opened surface (the ground), by median
     first = GridSurface(float(lo[0]), float(lo[1]), cell, opened, observed, window, percentile)
-    h = first.height_above(pts)
-    ground = np.abs(h) <= ground_band
-    med = _cell_percentile(key[ground], pts[ground, 2], 50.0, nx * ny).reshape(nx, ny)
+    ground = np.abs(first.height_above(pts[order])) <= ground_band
+    med = _sorted_percentile(ks[ground], zs[ground], 50.0, nx * ny).reshape(nx, ny)
     # cells without ground (under a structure) take a Gaussian-weighted mean of the ground
     # cells around them (normalized convolution), not the opened surface, which sits low
     # on slopes and sand-wave flanks; far from any ground the opened surface stays
