@@ -25,3 +25,22 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
     sep = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
     body = ["| " + " | ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) + " |" for r in cells]
     return "\n".join([line, sep, *body])
+
+
+def run_study(description: str | None, configs: Sequence[str], default_seeds: int,
+              run_one: Callable[[tuple[str, int]], list[dict]]) -> tuple[list[str], list[dict]]:
+    """Parse ``--seeds --configs --workers``, run ``run_one((config, seed))`` for every pair
+    in a process pool, and return the configurations asked for with all result rows."""
+    import argparse
+    from concurrent.futures import ProcessPoolExecutor
+
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--seeds", type=int, default=default_seeds)
+    ap.add_argument("--configs", default=",".join(configs))
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    chosen = args.configs.split(",")
+    jobs = [(c, s) for c in chosen for s in range(args.seeds)]
+    with ProcessPoolExecutor(args.workers) as pool:
+        results = [r for rows in pool.map(run_one, jobs) for r in rows]
+    return chosen, results

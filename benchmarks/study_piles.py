@@ -8,16 +8,14 @@ flagged piles. Each seed simulates the full ``jacket`` preset (about 2.2 M sound
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table  # noqa: E402
+from _common import run_study, table  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 
@@ -67,16 +65,9 @@ def run_one(args: tuple[str, int]) -> list[dict]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--seeds", type=int, default=20)
-    ap.add_argument("--configs", default=",".join(CONFIGS))
-    ap.add_argument("--workers", type=int, default=2)
-    args = ap.parse_args()
-    jobs = [(c, s) for c in args.configs.split(",") for s in range(args.seeds)]
-    with ProcessPoolExecutor(args.workers) as pool:
-        results = [r for rows in pool.map(run_one, jobs) for r in rows]
+    chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)
     out = []
-    for c in args.configs.split(","):
+    for c in chosen:
         for m in VARIANTS:
             rs = [r for r in results if r["config"] == c and r["method"] == m]
             sp = np.concatenate([r["sp_err"] for r in rs]) * 100

@@ -8,15 +8,13 @@ max, and the footprint area error (mean, share of reefs within 10 %, max).
 
 from __future__ import annotations
 
-import argparse
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table  # noqa: E402
+from _common import run_study, table  # noqa: E402
 from mbinspect.reefs import extract_reefs  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 
@@ -52,16 +50,9 @@ def run_one(args: tuple[str, int]) -> list[dict]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--configs", default=",".join(CONFIGS))
-    ap.add_argument("--workers", type=int, default=2)
-    args = ap.parse_args()
-    jobs = [(c, s) for c in args.configs.split(",") for s in range(args.seeds)]
-    with ProcessPoolExecutor(args.workers) as pool:
-        results = [r for rows in pool.map(run_one, jobs) for r in rows]
+    chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
     out = []
-    for c in args.configs.split(","):
+    for c in chosen:
         for m in ("local", "paper"):
             rs = [r for r in results if r["config"] == c and r["method"] == m]
             tp, fp, fn = (sum(r[k] for r in rs) for k in ("tp", "fp", "fn"))
