@@ -319,23 +319,6 @@ def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: floa
     return filled, nearest, float(lo[0]), float(lo[1])
 
 
-def sampling_gap(points: np.ndarray, *, sample: int = 20_000, seed: int = 0) -> float:
-    """The survey's sampling gap (m): median plan distance to the 6th nearest sounding.
-
-    On a multibeam swath the nearest neighbours lie along the same ping; the 6th is about
-    one ping step away, so this measures the larger (along-track) spacing.
-    """
-    p = np.asarray(points, np.float64)[:, :2]
-    if len(p) < 7:
-        return 0.5
-    if len(p) > sample:
-        p = p[np.random.default_rng(seed).choice(len(p), sample, replace=False)]
-    # a sample is sparser than the data: rescale by the square root of the thinning
-    full = len(points)
-    d = cKDTree(p - p.mean(axis=0)).query(p - p.mean(axis=0), k=7)[0][:, 6]
-    return float(np.median(d) * math.sqrt(len(p) / full))
-
-
 def _diameter(xy: np.ndarray) -> float:
     """Largest distance between two of the points (on their convex hull)."""
     h = convex_hull(xy)
