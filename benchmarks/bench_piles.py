@@ -43,7 +43,7 @@ def main() -> None:
             assert code in (0, 3)
             rows.append([f"{path.suffix} {len(cloud):,} pts", t_read, t_loc, t_out, t_cli])
         print(table(["input", "read s", "locate s", "outputs+figures s", "CLI end to end s"], rows))
-        mask, _ = elevated_points(sim.cloud.xyz)
+        mask, _, _ = elevated_points(sim.cloud.xyz)
         xy = sim.cloud.xyz[mask, :2]
         ours, _ = best_of(lambda: kmeans(xy, 4, seed=0), 3)
         try:

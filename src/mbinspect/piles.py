@@ -278,7 +278,7 @@ class PileResult:
 
 def elevated_points(points: np.ndarray, *, min_height: float = 1.0, seabed_cell: float = 1.0,
                     seabed_window: float = 5.0, noise_radius: float = 1.0,
-                    noise_neighbors: int = 3) -> tuple[np.ndarray, GridSurface]:
+                    noise_neighbors: int = 3) -> tuple[np.ndarray, GridSurface, np.ndarray]:
     """Points standing more than ``min_height`` m above a robust local seabed.
 
     Lone returns among them (water-column noise, spikes) are dropped by the radius filter
@@ -288,16 +288,19 @@ def elevated_points(points: np.ndarray, *, min_height: float = 1.0, seabed_cell:
     -------
     mask : ndarray of bool, shape (N,)
     seabed : GridSurface
+    height : ndarray, shape (N,)
+        Height of every point above the seabed (m).
     """
     pts = check_points(points, minimum=10)
     if not min_height > 0:
         raise ParameterError(f"--min-height: {min_height} must be positive")
     seabed = grid_seabed(pts, cell=seabed_cell, window=seabed_window, percentile=10.0)
-    mask = seabed.height_above(pts) > min_height
+    height = seabed.height_above(pts)
+    mask = height > min_height
     idx = np.flatnonzero(mask)
     if len(idx):
         mask[idx] = radius_outlier(pts[idx], radius=noise_radius, min_neighbors=noise_neighbors)
-    return mask, seabed
+    return mask, seabed, height
 
 
 def stable_order(xy: np.ndarray) -> np.ndarray:
@@ -395,7 +398,8 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
                    top_normal_deg: float = 30.0,
                    side_normal_deg: float = 40.0, edge_band: float = 0.15,
                    intensity: np.ndarray | None = None, intensity_threshold: float | None = None,
-                   paper: bool = False) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+                   paper: bool = False, point_normals: tuple[np.ndarray, np.ndarray] | None = None,
+                   ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """The joint threshold segmentation of one pile's points into top face and side.
 
     Parameters
@@ -419,6 +423,8 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
         dropped (the structure is brighter than sediment and water-column noise).
     paper : bool
         Exactly the paper's rule: top = the window's points, side = all the others below.
+    point_normals : (normals, planarity), optional
+        Normals already computed for these points (:func:`mbinspect.segment.normals`).
 
     Returns
     -------
@@ -432,7 +438,7 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
     if paper:
         top = (pts[:, 2] >= lo) & (pts[:, 2] <= hi)
         return top, pts[:, 2] < lo, info
-    nrm, planarity = normals(pts, k=normal_k)
+    nrm, planarity = point_normals if point_normals is not None else normals(pts, k=normal_k)
     nz = np.abs(nrm[:, 2])
     # only a well-defined normal may veto a point: on a sparse survey a point's neighbours
     # can all lie on one ping's line, where PCA gives no normal at all
@@ -731,7 +737,7 @@ def locate_piles(
     params["seabed_window"] = sw
     params["design"] = design.source if design is not None else None
     params["n_points"] = len(pts)
-    elevated, seabed = elevated_points(pts, min_height=min_height, seabed_cell=seabed_cell,
+    elevated, seabed, height = elevated_points(pts, min_height=min_height, seabed_cell=seabed_cell,
                                        seabed_window=sw)
     report(0.2)
     if not elevated.any():
@@ -743,8 +749,7 @@ def locate_piles(
     if not ids:
         raise DataError("no pile found among the points above the seabed")
     report(0.3)
-    height = seabed.height_above(pts)
-    near_seabed = (np.abs(height) < 0.3)
+    near_seabed = np.abs(height) < 0.3
     thr = _intensity_threshold(intensity, elevated, near_seabed) if intensity is not None else None
     params["intensity_threshold"] = thr
     segs: dict[int, PileSegment] = {}
@@ -753,11 +758,12 @@ def locate_piles(
     for c in ids:
         idx = eidx[labels == c]
         p = pts[idx]
+        nrm, planarity = normals(p) if len(p) >= 3 else (np.zeros((len(p), 3)), np.zeros(len(p)))
         top, side, info = split_top_side(
             p, radius=radius, window=window, step=step,
             intensity=None if intensity is None else intensity[idx],
-            intensity_threshold=thr, paper=(segmentation == "paper"))
-        nrm = normals(p)[0] if len(p) >= 3 else np.zeros((len(p), 3))
+            intensity_threshold=thr, paper=(segmentation == "paper"),
+            point_normals=(nrm, planarity))
         segs[c + 1] = PileSegment(p, top, side, None if ping is None else ping[idx])
         side_n[c + 1] = nrm[side]
         seg_info[c + 1] = info
@@ -793,7 +799,6 @@ def locate_piles(
     for pid in sorted(fits):
         f = fits[pid]
         flags = list(f["flags"])
-        seg = segs[pid]
         if f["n_top"] < min_top:
             flags.append(f"few top points: {f['n_top']} < {min_top}")
         if f["method"] != "centre" and f["n_side"] < min_side:
@@ -818,7 +823,6 @@ def locate_piles(
             side_coverage_deg=f["coverage"], rms=f["rms"], sigma_xy=f["sigma_xy"],
             flags=tuple(flags), radius_fitted=f.get("radius_fitted"),
             top_coverage=f.get("top_coverage"), alternatives=f.get("alternatives", {})))
-        del seg
     piles_t = tuple(piles)
     if design is not None and design.positions:
         piles_t, warn = _match_design(piles_t, design)
@@ -861,6 +865,15 @@ def _strip_cov(p: PileFit) -> PileFit:
     return replace(p, alternatives=alts)
 
 
+def _centre_result(top: np.ndarray, *, radius: float, ks: float, start: np.ndarray | None,
+                   groups: np.ndarray | None) -> dict[str, Any]:
+    """The centre method's answer as a fit record (centre, 1-sigma, covariance, top coverage)."""
+    c, used, cov = centre_method(top, radius=radius, ks=ks, start=start, groups=groups)
+    return {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),
+            "sigma_xy": math.sqrt(max(float(np.trace(cov)) / 2, 0.0)), "cov": cov,
+            "top_coverage": _top_coverage(top[used], c, radius)}
+
+
 def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_normals: np.ndarray, *,
              radius: float, method: str, ks: float, threshold: float, max_tilt_deg: float,
              seed: int, previous: dict[str, Any] | None, radius_mode: str = "auto") -> dict[str, Any]:
@@ -876,11 +889,7 @@ def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_norma
             raise DataError(f"pile at ({seg.points[:, 0].mean():.2f}, {seg.points[:, 1].mean():.2f}): "
                             "no top points and too few side points to measure it")
         start = None if previous is None else np.array([previous["x"], previous["y"], previous["z"]])
-        c, used, cov = centre_method(top, radius=radius, ks=ks, start=start, groups=gtop)
-        sig = math.sqrt(max(float(np.trace(cov)) / 2, 0.0))
-        centre_result = {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),
-                         "sigma_xy": sig, "cov": cov,
-                         "top_coverage": _top_coverage(top[used], c, radius)}
+        centre_result = _centre_result(top, radius=radius, ks=ks, start=start, groups=gtop)
         alternatives["centre"] = centre_result
     if method in ("intersection", "both") and len(side) >= 6 and len(top) >= 3:
         start_cyl = previous.get("cylinder") if previous else None
@@ -911,10 +920,7 @@ def _fit_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_norma
                        n_side=int(s_in.sum()), n_top=int(t_in.sum()), top_coverage=None)
     if "x" not in out:
         if centre_result is None:
-            c, used, cov = centre_method(top, radius=radius, ks=ks, groups=gtop)
-            centre_result = {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),
-                             "sigma_xy": math.sqrt(max(float(np.trace(cov)) / 2, 0.0)), "cov": cov,
-                             "top_coverage": _top_coverage(top[used], c, radius)}
+            centre_result = _centre_result(top, radius=radius, ks=ks, start=None, groups=gtop)
         cr = centre_result
         dz = top[:, 2] - cr["z"]
         out.update(x=cr["x"], y=cr["y"], z=cr["z"], method="centre", cov=cr["cov"],

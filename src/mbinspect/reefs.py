@@ -239,12 +239,14 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
 
 
 def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
-                foot_height: float = 0.15, link: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+                foot_height: float = 0.15, link: float = 0.5, height: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Reef points: above ``min_height`` m over the seabed, plus connected lower parts.
 
     A point between ``foot_height`` and ``min_height`` belongs to a reef when it lies
     within ``link`` m (plan) of a core point (hysteresis): the reef's feet are kept, a
-    lone seabed bump is not.
+    lone seabed bump is not. ``height`` may give the heights above ``seabed`` when the
+    caller already has them.
 
     Returns
     -------
@@ -257,7 +259,7 @@ def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
     _positive("--foot-height", foot_height)
     if foot_height > min_height:
         raise ParameterError(f"--foot-height {foot_height} must not exceed --min-height {min_height}")
-    h = seabed.height_above(pts)
+    h = seabed.height_above(pts) if height is None else np.asarray(height, np.float64)
     core = h > min_height
     low = (h > foot_height) & ~core
     mask = core.copy()
@@ -724,7 +726,8 @@ def extract_reefs(
         is_reef = np.abs(h_all) > plane_threshold
         is_reef &= h_all > 0
     else:
-        is_reef, _ = reef_points(kept, surf, min_height=min_height, foot_height=foot_height)
+        is_reef, _ = reef_points(kept, surf, min_height=min_height, foot_height=foot_height,
+                                 height=h_all)
         if statistical_k > 0 and is_reef.sum() > statistical_k:
             idx = np.flatnonzero(is_reef)
             ok = statistical_outlier(kept[idx], k=statistical_k, std_ratio=statistical_ratio)
