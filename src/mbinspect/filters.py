@@ -15,6 +15,8 @@ Examples
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,21 +80,57 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     n = len(pts)
     if n == 0:
         return np.zeros(0, dtype=bool)
-    cell = radius / math.sqrt(3.0)
-    ijk = np.floor((pts - pts.min(axis=0)) / cell).astype(np.int64)
-    dims = ijk.max(axis=0) + 1
-    key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    keep = counts[inverse] - 1 > min_neighbors
+    inv = math.sqrt(3.0) / radius  # voxels of side r / sqrt(3)
+    lo = [float(pts[:, a].min()) for a in range(3)]
+    ijk = [((pts[:, a] - lo[a]) * inv).astype(np.int64) for a in range(3)]  # >= 0: truncation floors
+    dims = [int(c.max()) + 1 for c in ijk]
+    key = (ijk[0] * dims[1] + ijk[1]) * dims[2] + ijk[2]
+    del ijk
+    size = dims[0] * dims[1] * dims[2]
+    if size <= max(8 * n, 1 << 20):  # a dense voxel grid: counting is one bincount, no sort
+        keep = np.bincount(key, minlength=size)[key] > min_neighbors + 1
+    else:
+        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        keep = counts[inverse] > min_neighbors + 1
     todo = np.flatnonzero(~keep)
     if len(todo):
-        # more than n neighbours within r  <=>  the (n+1)-th nearest other point is within r
-        local = pts - pts.mean(axis=0)
-        tree = cKDTree(local)
-        d, _ = tree.query(local[todo], k=min_neighbors + 2, distance_upper_bound=radius,
-                          workers=workers)
-        keep[todo] = np.isfinite(d[:, -1]) if d.ndim == 2 else np.isfinite(d)
+        keep[todo] = _has_neighbours(pts, todo, radius, min_neighbors + 1, workers)
     return keep
+
+
+def _has_neighbours(pts: np.ndarray, todo: np.ndarray, radius: float, k: int, workers: int
+                    ) -> np.ndarray:
+    """Whether each point ``pts[todo]`` has at least ``k`` other points within ``radius``.
+
+    The doubtful points are cut into strips along x, one per worker; each strip builds a
+    KD-tree on the points within ``radius`` of it and runs in its own thread (the tree
+    build and queries release the GIL).
+    """
+    n_workers = (os.cpu_count() or 1) if workers < 1 else workers
+    strips = n_workers if len(pts) >= 200_000 else 1
+
+    def strip(rows: np.ndarray, cand: np.ndarray | None) -> np.ndarray:
+        base = pts if cand is None else pts[cand]
+        # an unbalanced tree builds twice as fast and answers these short queries as well
+        tree = cKDTree(base, balanced_tree=False, compact_nodes=False)
+        d, _ = tree.query(pts[rows], k=k + 1, distance_upper_bound=radius,
+                          workers=1 if strips > 1 else workers)
+        return np.isfinite(d[:, -1]) if d.ndim == 2 else np.isfinite(d)
+
+    if strips == 1:
+        return strip(todo, None)
+    x = pts[:, 0]
+    edges = np.quantile(x[todo], np.linspace(0.0, 1.0, strips + 1))
+    edges[-1] = np.inf
+    jobs = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        sel = (x[todo] >= a) & (x[todo] < b)
+        jobs.append((todo[sel], np.flatnonzero((x >= a - radius) & (x <= b + radius)), sel))
+    out = np.zeros(len(todo), dtype=bool)
+    with ThreadPoolExecutor(strips) as pool:
+        for (_, _, sel), res in zip(jobs, pool.map(lambda j: strip(j[0], j[1]), jobs), strict=True):
+            out[sel] = res
+    return out
 
 
 def statistical_outlier(points: np.ndarray, *, k: int = 8, std_ratio: float = 2.5,

@@ -37,7 +37,22 @@ __all__ = [
     "polygon_distance",
     "points_in_polygon",
     "crop_mask",
+    "cell_index",
 ]
+
+
+def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Plan grid cell ``(i, j)`` of each point, for cells of ``cell`` m from ``(x0, y0)``.
+
+    Column by column: several times faster than broadcasting over an (N, 2) block.
+
+    >>> i, j = cell_index(np.array([[0.5, 2.5, 0.0], [-0.5, 0.0, 0.0]]), 0.0, 0.0, 1.0)
+    >>> i.tolist(), j.tolist()
+    ([0, -1], [2, 0])
+    """
+    i = np.floor((points[:, 0] - x0) * (1.0 / cell)).astype(np.int64)
+    j = np.floor((points[:, 1] - y0) * (1.0 / cell)).astype(np.int64)
+    return i, j
 
 
 def bearing_to_vector(bearing_deg: float) -> np.ndarray:

@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 from .errors import DataError, ParameterError
 from .evaluate import Evaluation, match_points
 from .filters import FilterReport, radius_outlier, statistical_outlier
-from .geometry import convex_hull, crop_mask, min_area_rectangle, polygon_area
+from .geometry import cell_index, convex_hull, crop_mask, min_area_rectangle, polygon_area
 from .io import PointCloud, check_points, to_jsonable
 from .seabed import GridSurface, PlaneSeabed, grid_seabed, ransac_plane
 from .segment import components, kmeans
@@ -93,8 +93,7 @@ class TerrainMask:
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for points that fall in an excluded cell."""
         p = np.asarray(points, np.float64)
-        i = np.floor((p[:, 0] - self.x0) / self.cell).astype(np.int64)
-        j = np.floor((p[:, 1] - self.y0) / self.cell).astype(np.int64)
+        i, j = cell_index(p, self.x0, self.y0, self.cell)
         nx, ny = self.excluded.shape
         # a point just past the grid's edge belongs to the edge cell
         return self.excluded[np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)]
@@ -111,7 +110,8 @@ class TerrainMask:
 
 def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float = 15.0,
                   max_roughness: float = 0.2, min_area: float = 100.0, margin: int = 2,
-                  surface: GridSurface | None = None) -> TerrainMask:
+                  surface: GridSurface | None = None, height: np.ndarray | None = None
+                  ) -> TerrainMask:
     """Steep or rough terrain: cells where the seabed itself is too steep or too rough.
 
     Both are measured on the robust local seabed surface (which sees through reefs, so a
@@ -119,7 +119,8 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     the larger of the RMS of the surface about its 2 m Gaussian smoothing and the RMS of
     the soundings within ±0.5 m of the surface (rock relief narrower than the opening). Patches are
     closed and filled, those smaller than ``min_area`` m² are kept (a lone steep cell is a
-    sand-wave lee, not a shore), and the rest widened by ``margin`` cells.
+    sand-wave lee, not a shore), and the rest widened by ``margin`` cells. ``height`` may
+    give the points' heights above ``surface`` when the caller has them.
     """
     pts = check_points(points, minimum=10)
     _positive("--max-slope", max_slope_deg)
@@ -139,11 +140,11 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     rough = np.sqrt((detail**2).reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)))
     # rocks narrower than the opening window vanish from the surface: measure the soundings
     # too, within +-0.5 m of it (reef tops stand higher and drop out, rock relief does not)
-    h = fine.height_above(pts)
+    h = fine.height_above(pts) if height is None or surface is None else height
     near = np.abs(h) <= 0.5
-    ij = np.floor((pts[near, :2] - [fine.x0, fine.y0]) / step).astype(np.int64)
-    ok = (ij[:, 0] >= 0) & (ij[:, 0] < nx // f) & (ij[:, 1] >= 0) & (ij[:, 1] < ny // f)
-    key = ij[ok, 0] * (ny // f) + ij[ok, 1]
+    ci, cj = cell_index(pts[near], fine.x0, fine.y0, step)
+    ok = (ci >= 0) & (ci < nx // f) & (cj >= 0) & (cj < ny // f)
+    key = ci[ok] * (ny // f) + cj[ok]
     cnt = np.bincount(key, minlength=(nx // f) * (ny // f))
     ss = np.bincount(key, weights=h[near][ok] ** 2, minlength=(nx // f) * (ny // f))
     point_rough = np.sqrt(ss / np.maximum(cnt, 1)).reshape(nx // f, ny // f)
@@ -175,7 +176,8 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
 def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5,
                confidence: float = 0.99, cell: float = 0.5, window: float = 6.0,
                max_plane_dev: float = 0.08, sample: int = 200_000, seed: int = 0,
-               grid: GridSurface | None = None) -> tuple[Seabed, dict[str, Any]]:
+               grid: GridSurface | None = None, grid_height: np.ndarray | None = None
+               ) -> tuple[Seabed, dict[str, Any]]:
     """The seabed under every point.
 
     Parameters
@@ -194,6 +196,8 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
         RANSAC runs on at most this many points (seeded), then scores all.
     grid : GridSurface, optional
         A local surface already computed from (a superset of) these points, reused.
+    grid_height : ndarray (N,), optional
+        The points' heights above ``grid``, when the caller has them.
 
     Returns
     -------
@@ -228,7 +232,7 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
         if dev <= max_plane_dev:
             info.update(method="plane", residual_rms=info["plane"]["ground_rms"])
             return plane, info
-    h = grid.height_above(pts)
+    h = grid.height_above(pts) if grid_height is None else grid_height
     ground = np.abs(h) <= 0.3
     rms = float(np.sqrt(np.mean(h[ground] ** 2))) if ground.any() else math.inf
     info.update(method="grid", residual_rms=rms, grid=grid.to_dict())
@@ -280,6 +284,12 @@ class _Raster:
     nearest: np.ndarray  # (ny, nx) int: index of the nearest sounding (-1 none)
 
 
+def _grow(mask: np.ndarray, r: int) -> np.ndarray:
+    """Dilation by a (2r+1)-cell square, as two 1-D passes."""
+    m = ndimage.maximum_filter1d(mask.view(np.uint8), 2 * r + 1, axis=0, mode="constant")
+    return ndimage.maximum_filter1d(m, 2 * r + 1, axis=1, mode="constant").view(bool)
+
+
 def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float, reach: float,
                           own: float, bridge: float) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Raster cells near reef points, each labelled by its nearest sounding."""
@@ -293,13 +303,15 @@ def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: floa
     ij = np.floor((rp - lo) / cell).astype(np.int64)
     occ[np.clip(ij[:, 1], 0, ny - 1), np.clip(ij[:, 0], 0, nx - 1)] = True
     r = max(1, int(math.ceil(reach / cell)))
-    occ = ndimage.binary_dilation(occ, structure=np.ones((2 * r + 1, 2 * r + 1), bool))
+    occ = _grow(occ, r)
     cj, ci = np.nonzero(occ)
     centres = np.column_stack([lo[0] + (ci + 0.5) * cell, lo[1] + (cj + 0.5) * cell])
-    near = (points[:, 0] >= lo[0] - reach) & (points[:, 0] <= hi[0] + reach) & \
-           (points[:, 1] >= lo[1] - reach) & (points[:, 1] <= hi[1] + reach)
-    idx = np.flatnonzero(near)
-    tree = cKDTree(points[idx, :2] - lo)
+    # the soundings that can be nearest to a candidate cell lie within ``reach`` of one
+    wide = _grow(occ, r + 1)
+    pi, pj = cell_index(points, lo[0], lo[1], cell)
+    idx = np.flatnonzero((pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny))
+    idx = idx[wide[pj[idx], pi[idx]]]
+    tree = cKDTree(points[idx, :2] - lo, balanced_tree=False, compact_nodes=False)
     d, k = tree.query(centres - lo, k=1, distance_upper_bound=reach, workers=-1)
     nearest = np.full((ny, nx), -1, dtype=np.int64)
     ok = np.isfinite(d)
@@ -563,10 +575,11 @@ class ReefResult:
 
 def _coverage(points: np.ndarray, cell: float = 1.0) -> float:
     """Share of the 1 m cells of the points' bounding box that hold a sounding."""
-    lo = points[:, :2].min(axis=0)
-    ij = np.floor((points[:, :2] - lo) / cell).astype(np.int64)
-    n = ij.max(axis=0) + 1
-    return float(len(np.unique(ij[:, 0] * n[1] + ij[:, 1])) / max(int(n[0] * n[1]), 1))
+    i, j = cell_index(points, float(points[:, 0].min()), float(points[:, 1].min()), cell)
+    nx, ny = int(i.max()) + 1, int(j.max()) + 1
+    seen = np.zeros(nx * ny, dtype=bool)
+    seen[i * ny + j] = True
+    return float(seen.sum() / max(len(seen), 1))
 
 
 def _groups(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
@@ -694,30 +707,36 @@ def extract_reefs(
     filters["radius"] = rep.to_dict()
     report(0.25)
     region = None
-    coverage = _coverage(pts[keep]) if keep.any() else 0.0
+    cand = pts[keep]
+    coverage = _coverage(cand) if len(cand) else 0.0
     if coverage < 0.25:
         warnings.append(f"the soundings cover only {100 * coverage:.0f} % of their extent (1 m cells): "
                         "is there a seabed in this cloud, or only the objects on it?")
         exclude_rough = False  # terrain cannot be judged without a seabed
     shared: GridSurface | None = None
-    if method == "local" and seabed in ("auto", "grid"):
-        shared = grid_seabed(pts[keep], cell=seabed_cell, window=seabed_window)
+    h_shared: np.ndarray | None = None
+    if method == "local" and seabed in ("auto", "grid") and len(cand) >= 3:
+        shared = grid_seabed(cand, cell=seabed_cell, window=seabed_window)
+        h_shared = shared.height_above(cand)
+    kept = cand
     if exclude_rough and method == "local":
-        region = rough_terrain(pts[keep], max_slope_deg=max_slope_deg, max_roughness=max_roughness,
-                               surface=shared)
-        out = region.contains(pts) & keep
+        region = rough_terrain(cand, max_slope_deg=max_slope_deg, max_roughness=max_roughness,
+                               surface=shared, height=h_shared)
+        out = region.contains(cand)
         filters["rough_terrain"] = {"n_removed": int(out.sum()), **region.to_dict()}
-        keep &= ~out
-    kept = pts[keep]
+        if out.any():
+            kept = cand[~out]
+            h_shared = h_shared[~out] if h_shared is not None else None
     if len(kept) < 10:
         raise DataError("fewer than 10 soundings left after filtering; nothing to extract")
     report(0.35)
     surf, seabed_info = fit_seabed(kept, mode="plane" if method == "paper" else seabed,
                                    threshold=plane_threshold, confidence=confidence,
                                    cell=seabed_cell, window=seabed_window,
-                                   max_plane_dev=max_plane_dev, seed=seed, grid=shared)
+                                   max_plane_dev=max_plane_dev, seed=seed, grid=shared,
+                                   grid_height=h_shared)
     report(0.55)
-    h_all = surf.height_above(kept)
+    h_all = h_shared if surf is shared and h_shared is not None else surf.height_above(kept)
     seabed_info["coverage"] = coverage
     if coverage >= 0.25 and np.mean(np.abs(h_all) <= 0.3) < 0.3:
         warnings.append(f"only {100 * np.mean(np.abs(h_all) <= 0.3):.0f} % of the soundings lie on "
