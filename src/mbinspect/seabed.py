@@ -155,8 +155,8 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     opened = ndimage.grey_opening(filled, size=(w, w), mode="nearest")
     # the opening shaves crests and the low percentile sits under the noise: re-estimate
     # each cell from the soundings close to the opened surface (the ground), by median
-    first = GridSurface(float(lo[0]), float(lo[1]), cell, opened, observed, window, percentile)
-    ground = np.abs(first.height_above(pts)) <= ground_band
+    # (the opened surface at each sounding's own cell: bilinear is not needed for a band)
+    ground = np.abs(pts[:, 2] - opened.ravel()[key]) <= ground_band
     med = _sorted_percentile(*_sorted_cells(key[ground], pts[ground, 2]), 50.0, nx * ny).reshape(nx, ny)
     # cells without ground (under a structure) take a Gaussian-weighted mean of the ground
     # cells around them (normalized convolution), not the opened surface, which sits low

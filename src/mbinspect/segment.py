@@ -13,7 +13,7 @@ Examples
 from __future__ import annotations
 
 import numpy as np
-from scipy.cluster.vq import kmeans2
+from scipy.cluster.vq import kmeans2, vq
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
@@ -71,12 +71,31 @@ def kmeans(points: np.ndarray, k: int, *, seed: int = 0, n_init: int = 10
     rng = np.random.default_rng(seed)
     best = None
     for _ in range(n_init):
-        centres, labels = kmeans2(local, k, minit="++", seed=rng, iter=50)
+        centres, _ = kmeans2(local, k, minit="++", seed=rng, iter=1)
+        labels, centres = _lloyd(local, centres)
         inertia = float(((local - centres[labels]) ** 2).sum())
         if best is None or inertia < best[0]:
             best = (inertia, labels, centres)
     assert best is not None
     return best[1], best[2] + shift
+
+
+def _lloyd(pts: np.ndarray, centres: np.ndarray, max_iter: int = 100) -> tuple[np.ndarray, np.ndarray]:
+    """Lloyd iterations from ``centres`` until no label changes (an empty cluster stays put)."""
+    k = len(centres)
+    centres = centres.copy()
+    labels = np.full(len(pts), -1)
+    for _ in range(max_iter):
+        new, _ = vq(pts, centres)
+        if np.array_equal(new, labels):
+            break
+        labels = new
+        counts = np.bincount(labels, minlength=k)
+        sums = np.stack([np.bincount(labels, weights=pts[:, d], minlength=k) for d in range(pts.shape[1])],
+                        axis=1)
+        full = counts > 0
+        centres[full] = sums[full] / counts[full, None]
+    return labels, centres
 
 
 def components(points: np.ndarray, *, eps: float, min_points: int = 1) -> np.ndarray:
