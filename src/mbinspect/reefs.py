@@ -291,7 +291,8 @@ def _grow(mask: np.ndarray, r: int) -> np.ndarray:
 
 
 def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float, reach: float,
-                          own: float, bridge: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+                          own: float, bridge: float, height: np.ndarray | None = None,
+                          wall: float = 0.0) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Raster cells near reef points, each labelled by its nearest sounding."""
     rp = points[is_reef, :2]
     lo = rp.min(axis=0) - reach
@@ -312,6 +313,12 @@ def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: floa
     idx = np.flatnonzero((pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny))
     idx = idx[wide[pj[idx], pi[idx]]]
     tree = cKDTree(points[idx, :2] - lo, balanced_tree=False, compact_nodes=False)
+    # own and bridge are in units of the soundings' typical spacing here (median distance
+    # to the nearest other sounding, from a seeded sample)
+    sample = idx[np.random.default_rng(0).permutation(len(idx))[:20_000]]
+    dn, _ = tree.query(points[sample, :2] - lo, k=2)
+    spacing = float(np.median(dn[:, 1])) if len(sample) > 1 else cell
+    own, bridge = own * spacing, bridge * spacing
     d, k = tree.query(centres - lo, k=1, distance_upper_bound=reach, workers=-1)
     nearest = np.full((ny, nx), -1, dtype=np.int64)
     ok = np.isfinite(d)
@@ -323,6 +330,25 @@ def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: floa
     # ``own`` m of a reef sounding; enclosed gaps between pings are filled back
     close = np.zeros((ny, nx), dtype=bool)
     close[cj[ok], ci[ok]] = d[ok] <= own
+    if height is not None and wall > 0:
+        # a sounding on a reef's side wall marks the edge itself: of the cells nearest to
+        # it, only those on the reef's side of it (up the height gradient) are reef
+        hmax = np.zeros((ny, nx))
+        ri = np.flatnonzero(is_reef)
+        ri_i, ri_j = cell_index(points[ri], lo[0], lo[1], cell)
+        np.maximum.at(hmax, (np.clip(ri_j, 0, ny - 1), np.clip(ri_i, 0, nx - 1)), height[ri])
+        w = max(1, int(round(0.4 / cell)))
+        local = ndimage.maximum_filter(hmax, size=2 * w + 1)
+        smooth = ndimage.gaussian_filter(hmax, 2.0)
+        gy, gx = np.gradient(smooth)
+        rows = np.flatnonzero(ok)
+        src = idx[k[rows]]
+        si, sj = cell_index(points[src], lo[0], lo[1], cell)
+        si, sj = np.clip(si, 0, nx - 1), np.clip(sj, 0, ny - 1)
+        on_wall = is_reef[src] & (height[src] < wall * local[sj, si])
+        g = np.column_stack([gx[sj, si], gy[sj, si]])
+        inward = ((centres[rows] - points[src, :2]) * g).sum(axis=1) >= 0
+        close[cj[rows[on_wall]], ci[rows[on_wall]]] = inward[on_wall]
     core = reef & close
     # bridge the gaps between pings inside a reef; closing does not grow outer edges
     rc = max(1, int(round(bridge / cell)))
@@ -387,17 +413,23 @@ def _merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: 
 
 def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
                 reach: float = 0.6, reef_area: float | None = None, min_area: float = 1.0,
-                split_factor: float = 1.5, own: float = 0.15, bridge: float = 0.35,
-                link: float = 0.3, seed: int = 0
+                split_factor: float = 1.5, own: float = 1.5, bridge: float = 3.5,
+                link: float = 0.3, seed: int = 0, height: np.ndarray | None = None,
+                wall: float = 0.7
                 ) -> tuple[list[np.ndarray], list[np.ndarray], _Raster, float]:
     """Single reefs from reef points.
 
     A plan raster of ``cell`` m is labelled by its nearest sounding within ``reach`` m
     (reef or seabed), which places each outline halfway between reef and seabed
-    soundings; a reef cell must also lie within ``own`` m of a reef sounding (no reef
-    spreads into its acoustic shadow); gaps between pings inside a reef are bridged by a
-    closing of radius ``bridge`` m (which does not grow outer edges) and enclosed gaps
-    filled; parts closer than ``2 * link`` m are one candidate (walls of a hollow reef).
+    soundings; a reef cell must also lie within ``own`` sounding spacings (the median
+    distance between neighbouring soundings there) of a reef sounding, so that no reef
+    spreads into its acoustic shadow; a sounding on a side wall (lower than ``wall`` times
+    the highest reef sounding within 0.4 m, given ``height`` above the seabed) marks the
+    edge itself and claims only the cells on the reef's side of it; gaps between pings
+    inside a reef are bridged by a closing of radius ``bridge`` spacings (which does not
+    grow outer edges) and enclosed gaps filled; parts closer than ``2 * link`` m are one
+    candidate (walls of a hollow reef). Scaling ``own`` and ``bridge`` with the spacing
+    keeps the footprint unbiased from sparse to dense surveys.
     A part whose area exceeds
     ``split_factor`` times the single-reef area (``reef_area``, or the median area of the
     parts of at least ``min_area``) holds ``round(area / reef_area)`` reefs and is split by
@@ -415,7 +447,8 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
         empty = _Raster(0.0, 0.0, cell, np.zeros((1, 1), np.int64), np.full((1, 1), -1))
         return [], [], empty, reef_area or math.nan
     reef_mask, nearest, x0, y0 = _nearest_label_raster(pts, is_reef, cell=cell, reach=reach,
-                                                       own=own, bridge=bridge)
+                                                       own=own, bridge=bridge, height=height,
+                                                       wall=wall)
     # parts closer than 2 * link belong together (the thin walls of a hollow reef break
     # up between pings); the footprint stays the undilated cells
     rl = max(1, int(round(link / cell)))
@@ -763,6 +796,7 @@ def extract_reefs(
             used_area = math.nan
         else:
             parts, small, raster, used_area = split_reefs(kept, is_reef, cell=cell, reef_area=reef_area,
+                                                          height=h_all,
                                                           min_area=min_area, seed=seed)
             reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
             for p in small:
