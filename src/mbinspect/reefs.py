@@ -359,6 +359,27 @@ def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: floa
     return filled, nearest, float(lo[0]), float(lo[1])
 
 
+def _local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float, overall: float,
+                     radius: float = 25.0, min_parts: int = 5, among: np.ndarray | None = None
+                     ) -> np.ndarray:
+    """Single-reef area near each part: the median area of the parts within ``radius`` m.
+
+    A field may hold several kinds of reef in separate groups; a pair of small reefs that
+    touch must be judged against its own kind. Only the parts flagged in ``among`` (all by
+    default) count; fewer than ``min_parts`` of them around: ``overall``.
+    """
+    if not parts:
+        return np.zeros(0)
+    centres = np.array([[(p % nx).mean(), (p // nx).mean()] for p in parts]) * cell
+    use = np.ones(len(parts), bool) if among is None else np.asarray(among, bool)
+    if not use.any():
+        return np.full(len(parts), overall)
+    sel = np.flatnonzero(use)
+    near = cKDTree(centres[sel]).query_ball_point(centres, radius)
+    return np.array([float(np.median(areas[sel[n]])) if len(n) >= min_parts else overall
+                     for n in near])
+
+
 def _diameter(xy: np.ndarray) -> float:
     """Largest distance between two of the points (on their convex hull)."""
     h = convex_hull(xy)
@@ -369,45 +390,76 @@ def _diameter(xy: np.ndarray) -> float:
 
 
 def _merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float,
-                     reef_area: float) -> tuple[list[np.ndarray], np.ndarray]:
-    """Join pairs of fragments that together make one reef.
+                     reef_area: float | np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """Join fragments that together make one reef.
 
     A thin wall square to the track can fall between two pings and vanish, so a hollow
-    reef shows as two parallel walls. Two parts, each under 0.6 single-reef areas, whose
-    union is no larger than one reef (area within 1.3 reef areas, diameter within 1.15
-    times the 90th percentile diameter of the single reefs plus one cell; a field may mix
-    kinds of reef) are one reef.
+    reef shows as two, three or four separate walls. Fragments (parts under 0.6 of the
+    single-reef area there, ``reef_area`` per part or one value) are joined while the
+    union stays no larger than one reef: area within 1.3 reef areas and
+    diameter within 1.15 times the 90th-percentile diameter of the single reefs plus one
+    cell (a field may mix kinds of reef), the union whose diameter is nearest to that of
+    the whole reefs around it first. A union stays open to more fragments while it is
+    smaller than one reef area.
     """
-    if not math.isfinite(reef_area) or len(parts) < 2:
+    ra = np.broadcast_to(np.asarray(reef_area, np.float64), (len(parts),))
+    if len(parts) < 2 or not np.isfinite(ra).any():
         return parts, areas
-    frag = [i for i, a in enumerate(areas) if a < 0.6 * reef_area]
-    single = [i for i, a in enumerate(areas) if 0.7 * reef_area <= a <= 1.3 * reef_area]
+    frag = [i for i in range(len(parts)) if areas[i] < 0.6 * ra[i]]
+    single = [i for i in range(len(parts)) if 0.7 * ra[i] <= areas[i] <= 1.3 * ra[i]]
     if len(frag) < 2 or not single:
         return parts, areas
 
-    def cells_xy(i: int) -> np.ndarray:
-        j, k = np.divmod(parts[i], nx)
+    def cells_xy(p: np.ndarray) -> np.ndarray:
+        j, k = np.divmod(p, nx)
         return np.column_stack([k, j]).astype(np.float64) * cell
 
-    limit = 1.15 * float(np.percentile([_diameter(cells_xy(i)) for i in single], 90)) + cell
-    xy = {i: cells_xy(i) for i in frag}
-    centre = {i: v.mean(axis=0) for i, v in xy.items()}
-    pairs = []
-    for n_a, a in enumerate(frag):
-        for b in frag[n_a + 1:]:
-            if np.hypot(*(centre[a] - centre[b])) > limit or areas[a] + areas[b] > 1.3 * reef_area:
-                continue
-            if _diameter(np.vstack([xy[a], xy[b]])) <= limit:
-                pairs.append((float(np.hypot(*(centre[a] - centre[b]))), a, b))
-    used: set[int] = set()
-    merged = list(parts)
-    for _, a, b in sorted(pairs):
-        if a in used or b in used:
-            continue
-        used.update((a, b))
-        merged[a] = np.concatenate([parts[a], parts[b]])
-        merged[b] = np.empty(0, dtype=parts[b].dtype)
-    out = [p for p in merged if len(p)]
+    diam = np.array([_diameter(cells_xy(parts[i])) for i in single])
+    limit = 1.15 * float(np.percentile(diam, 90)) + cell
+    # the diameter of a whole reef near each fragment (median of the single reefs within 25 m)
+    s_centres = np.array([cells_xy(parts[i]).mean(axis=0) for i in single])
+    s_tree = cKDTree(s_centres)
+
+    def typical(c: np.ndarray) -> float:
+        near = s_tree.query_ball_point(c, 25.0)
+        return float(np.median(diam[near])) if len(near) >= 3 else float(np.median(diam))
+
+    # open unions: (cells, area, single-reef area there, centre)
+    pool = {i: (parts[i], float(areas[i]), float(ra[i]), cells_xy(parts[i]).mean(axis=0)) for i in frag}
+    merged = {i: [i] for i in frag}
+    closed: list[int] = []
+    while len(pool) >= 2:
+        best = None
+        keys = sorted(pool)
+        for n_a, a in enumerate(keys):
+            pa, aa, ra_a, ca = pool[a]
+            for b in keys[n_a + 1:]:
+                pb, ab, ra_b, cb = pool[b]
+                dist = float(np.hypot(*(ca - cb)))
+                r = max(ra_a, ra_b)
+                if dist > limit or aa + ab > 1.3 * r:
+                    continue
+                # of the possible unions, first the one spanning most nearly one whole reef
+                # (two walls of one hollow reef, not the facing walls of two neighbours)
+                d_union = _diameter(np.vstack([cells_xy(pa), cells_xy(pb)]))
+                score = abs(d_union - typical((ca + cb) / 2))
+                if d_union <= limit and (best is None or score < best[0]):
+                    best = (score, a, b)
+        if best is None:
+            break
+        _, a, b = best
+        pa, aa, ra_a, _ = pool.pop(a)
+        pb, ab, ra_b, _ = pool.pop(b)
+        cells = np.concatenate([pa, pb])
+        merged[a] = merged[a] + merged.pop(b)
+        r = max(ra_a, ra_b)
+        if aa + ab < r:
+            pool[a] = (cells, aa + ab, r, cells_xy(cells).mean(axis=0))
+        else:
+            closed.append(a)
+        parts = parts[:a] + [cells] + parts[a + 1:]
+    gone = {j for i in merged for j in merged[i][1:]}
+    out = [p for i, p in enumerate(parts) if i not in gone]
     return out, np.array([len(p) for p in out]) * cell * cell
 
 
@@ -431,8 +483,9 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     candidate (walls of a hollow reef). Scaling ``own`` and ``bridge`` with the spacing
     keeps the footprint unbiased from sparse to dense surveys.
     A part whose area exceeds
-    ``split_factor`` times the single-reef area (``reef_area``, or the median area of the
-    parts of at least ``min_area``) holds ``round(area / reef_area)`` reefs and is split by
+    ``split_factor`` times the single-reef area (``reef_area``, or else the median area of
+    the parts of at least ``min_area`` within 25 m, so that each group of a mixed field is
+    judged by its own kind) holds ``round(area / reef_area)`` reefs and is split by
     seeded K-means on its cells.
 
     Returns
@@ -463,15 +516,22 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     parts = [order[bounds[i]:bounds[i + 1]] for i in range(k)]
     areas = np.array([len(p) for p in parts]) * cell * cell
     big = areas >= min_area
+    given_area = reef_area
     if reef_area is None:
         reef_area = float(np.median(areas[big])) if big.any() else math.nan
-    parts, areas = _merge_fragments(parts, areas, nx, cell, reef_area)
+        near_area = _local_reef_area(parts, areas, nx, cell, reef_area, among=big)
+    else:
+        near_area = np.full(len(parts), reef_area)
+    parts, areas = _merge_fragments(parts, areas, nx, cell, near_area)
     big = areas >= min_area
     reefs: list[np.ndarray] = []
     others = [p for p, b in zip(parts, big, strict=True) if not b]
     rng_seed = seed
-    for p, a in zip([p for p, b in zip(parts, big, strict=True) if b], areas[big], strict=True):
-        n = int(round(a / reef_area)) if math.isfinite(reef_area) and a > split_factor * reef_area else 1
+    big_parts = [p for p, b in zip(parts, big, strict=True) if b]
+    local_area = _local_reef_area(big_parts, areas[big], nx, cell, reef_area) if given_area is None \
+        else np.full(len(big_parts), reef_area)
+    for p, a, ra in zip(big_parts, areas[big], local_area, strict=True):
+        n = int(round(a / ra)) if math.isfinite(ra) and a > split_factor * ra else 1
         if n <= 1:
             reefs.append(p)
             continue
