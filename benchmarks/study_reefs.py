@@ -26,6 +26,7 @@ CONFIGS: dict[str, dict] = {
     "distractors": {"boulders": 25, "debris": 12},
     "noise-x2": {"noise_scale": 2.0},
     "rough-shore": {"shore_width": 30.0},
+    "dense-pings": {"ping_spacing": 0.2},
 }
 
 

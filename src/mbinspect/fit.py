@@ -249,8 +249,10 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
     loss, f_scale : str, float
         Robust loss of :func:`scipy.optimize.least_squares` and its scale (m).
     groups : ndarray of int, optional
-        Cluster labels (ping numbers) for a cluster-robust covariance: errors common to a
-        ping are not independent, and a plain covariance would be far too small.
+        Cluster labels (ping numbers). Errors common to a ping are not independent: the
+        fit is then refined as a random-effects (GLS) fit, which stops a ping with many
+        soundings from counting as many independent ones, and its covariance is
+        cluster-robust (a plain covariance would be far too small).
 
     Returns
     -------
@@ -283,9 +285,41 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
     if not fixed_r:
         x0.append(start.radius)
     sol = least_squares(resid, np.array(x0), loss=loss, f_scale=f_scale, x_scale=0.01)
+    shrink = _random_effects(sol.fun, groups) if groups is not None else None
+    if shrink is not None:
+        inv, c_g = shrink
+        n_g = np.bincount(inv)
+
+        def resid_gls(q: np.ndarray) -> np.ndarray:
+            r = resid(q)
+            return r - c_g[inv] * (np.bincount(inv, weights=r) / n_g)[inv]
+
+        sol = least_squares(resid_gls, sol.x, loss=loss, f_scale=f_scale, x_scale=0.01)
     c, a, r = unpack(sol.x)
     cov = _sandwich(sol.jac, sol.fun, groups)
     return Cylinder(c + shift, a, r), cov
+
+
+def _random_effects(res: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per-cluster shrink factors of a random-effects (GLS) fit, from first-pass residuals.
+
+    Errors common to a ping (position, heave, roll) make its soundings equicorrelated:
+    ``var = s_e^2 I + s_p^2 11'``. Subtracting ``c_g`` times the ping mean from each
+    residual, ``c_g = 1 - sqrt(s_e^2 / (s_e^2 + n_g s_p^2))``, whitens them, so that a ping
+    with many soundings no longer counts as many independent ones. None when there are too
+    few pings or no common part to remove.
+    """
+    _, inv = np.unique(groups, return_inverse=True)
+    n_g = np.bincount(inv).astype(np.float64)
+    n_groups, n = len(n_g), len(res)
+    if n_groups < 5 or n - n_groups < 5:
+        return None
+    mean_g = np.bincount(inv, weights=res) / n_g
+    s_e2 = float(np.sum((res - mean_g[inv]) ** 2)) / (n - n_groups)
+    s_p2 = float(np.mean(mean_g**2)) - s_e2 * float(np.mean(1.0 / n_g))
+    if not (s_e2 > 0 and s_p2 > 0):
+        return None
+    return inv, 1.0 - np.sqrt(s_e2 / (s_e2 + n_g * s_p2))
 
 
 def _sandwich(J: np.ndarray, res: np.ndarray, groups: np.ndarray | None) -> np.ndarray:
