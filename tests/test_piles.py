@@ -31,11 +31,12 @@ def _errors(result, sim):
 
 
 def test_intersection_method_reaches_a_centimetre(jacket_small):
-    # a third of the preset's ping density: 1-sigma near 5 mm, so allow up to 1 cm
+    # a third of the preset's ping density: over 30 seeds the spacing error RMS is 0.66 cm
+    # and its max 1.74 cm, centres within 1.5 cm; one scene must stay inside that
     result = locate_piles(jacket_small.cloud, count=4, radius=0.75, seed=1, max_sigma=0.01)
     centre, spacing, truth = _errors(result, jacket_small)
     assert [p.id for p in result.piles] == [1, 2, 3, 4]
-    assert centre.max() < 0.01 and spacing.max() < 0.012
+    assert centre.max() < 0.01 and spacing.max() < 0.015
     for p in result.piles:
         assert p.method == "intersection" and not p.flags
         assert p.tilt_deg == pytest.approx(truth[p.id]["tilt_deg"], abs=0.2)
