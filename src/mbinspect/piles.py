@@ -942,7 +942,11 @@ def _prune(seg: PileSegment, fit: dict[str, Any], active: tuple[np.ndarray, np.n
     new_top = seg.top.copy()
     if cyl is not None:
         r = np.abs(cyl.residuals(seg.points))
-        sel = seg.side & (r <= threshold)
+        # the band follows the noise as in the fit (3 robust sigmas, at least ``threshold``):
+        # a fixed band would truncate noisy data, shrink its spread and hide its errors
+        near = seg.side & (r <= 5 * threshold)
+        band = max(threshold, 3.0 * 1.4826 * float(np.median(r[near]))) if near.sum() > 10 else threshold
+        sel = seg.side & (r <= band)
         if sel.sum() >= 6:
             new_side = sel
         axis_d = np.abs(cyl.residuals(seg.points) + cyl.radius)
