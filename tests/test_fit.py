@@ -63,6 +63,45 @@ def test_orthogonal_fit_is_unbiased_on_a_one_sided_arc():
     assert kasa is not None and abs(kasa.radius - 0.75) < 0.05
 
 
+def _pinged_pile(rng, centre, radius=0.75, sigma_ping=0.01, sigma_point=0.03):
+    """Side soundings as multibeam gives them: each ping a vertical line at one azimuth,
+    some pings with many soundings (close, near nadir), most with few, every ping shifted
+    by its own position error."""
+    pts, ping = [], []
+    for g, az in enumerate(rng.uniform(0, 2 * np.pi, 60)):
+        n = 300 if g % 10 == 0 else 8
+        radial = np.array([np.cos(az), np.sin(az), 0.0])
+        z = rng.uniform(-4, 0, n)
+        p = centre + radius * radial + np.outer(z, [0, 0, 1.0])
+        p += rng.normal(0, sigma_point, (n, 3)) + np.r_[rng.normal(0, sigma_ping, 2), 0.0]
+        pts.append(p)
+        ping.append(np.full(n, g))
+    return np.vstack(pts), np.concatenate(ping)
+
+
+def test_random_effects_by_ping_beat_ordinary_least_squares():
+    # a ping's soundings share its position error: weighting them as independent lets the
+    # pings with many soundings dominate; the random-effects refinement must do better
+    centre = np.array([0.0, 0.0, -16.0])
+    start = Cylinder(centre + [0.02, -0.02, 0], np.array([0, 0, 1.0]), 0.75)
+    err_ols, err_re, in_ols, in_re = [], [], [], []
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        pts, ping = _pinged_pile(rng, centre)
+        for groups, err, inside in ((None, err_ols, in_ols), (ping, err_re, in_re)):
+            fit, cov = fit_cylinder(pts, start, radius=0.75, z_ref=-16.0, loss="linear", groups=groups)
+            e = fit.point[:2] - centre[:2]
+            err.append(np.hypot(*e))
+            inside.append(float(e @ np.linalg.solve(cov[:2, :2], e)) <= 5.99)  # 95 % in 2-D
+    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
+    assert rms(err_re) < 0.92 * rms(err_ols)  # 0.85 here, 0.88 over 200 seeds
+    # the covariance that ignores pings is badly overconfident; the cluster-robust one is
+    # much closer to honest, though few dominant pings still leave it short of 95 %
+    # (here 80 % against 50 %; over 200 seeds 72 % against 33 %; 98 % on the simulated
+    # jacket, benchmarks/RESULTS.md)
+    assert np.mean(in_re) >= 0.7 and np.mean(in_re) > np.mean(in_ols) + 0.2
+
+
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 10_000), gx=st.floats(-0.5, 0.5), gy=st.floats(-0.5, 0.5))
 def test_plane_recovered_with_outliers(seed, gx, gy):
