@@ -579,8 +579,10 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     def refit(model: Cylinder, r: float | None) -> tuple[Cylinder, np.ndarray, np.ndarray]:
         # the inlier band follows the noise: 3 robust sigmas of the residuals, at least
         # ``threshold`` (a fixed band truncates noisier data and hides its spread)
-        band = threshold
-        sel = np.abs(model.residuals(ls)) <= band
+        res0 = np.abs(model.residuals(ls))
+        # a start far off (a wrong fixed radius) may leave no point in the band: widen it
+        band = max(threshold, float(np.sort(res0)[min(5, len(res0) - 1)])) if len(res0) else threshold
+        sel = res0 <= band
         for _ in range(3):
             model, cv = fit_cylinder(ls[sel], model, radius=r, z_ref=z_top, f_scale=band,
                                      groups=None if g is None else g[sel])
@@ -588,6 +590,8 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
             near = np.abs(res) <= 2.5 * band
             band = max(threshold, 3.0 * 1.4826 * float(np.median(np.abs(res[near])))) \
                 if near.sum() > 10 else band
+            if (np.abs(res) <= band).sum() < 6:
+                break
             sel = np.abs(res) <= band
         return model, cv, sel
 
