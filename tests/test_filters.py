@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist
 
 from mbinspect.errors import ParameterError
@@ -19,6 +20,21 @@ def test_radius_filter_matches_brute_force(seed):
     keep = radius_outlier(pts, radius=0.4, min_neighbors=3)
     neighbours = (cdist(pts, pts) <= 0.4).sum(axis=1) - 1
     np.testing.assert_array_equal(keep, neighbours > 3)
+
+
+@pytest.mark.parametrize("spread", [0.0, 2000.0])
+def test_radius_filter_matches_brute_force_on_a_survey_like_surface(spread):
+    # a wavy 2.5-D seabed where the voxel shortcut settles most points, plus water-column
+    # returns; ``spread`` scatters some far away so the voxel grid cannot be dense
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(0, 12, (6000, 2))
+    z = 0.3 * np.sin(xy[:, 0]) + rng.normal(0, 0.03, len(xy))
+    far = rng.uniform(-spread - 1, spread + 1, (40, 3)) + [6, 6, 3]
+    pts = np.vstack([np.column_stack([xy, z]), far])
+    keep = radius_outlier(pts, radius=0.5, min_neighbors=3)
+    neighbours = np.array([len(n) for n in cKDTree(pts).query_ball_point(pts, 0.5)]) - 1
+    np.testing.assert_array_equal(keep, neighbours > 3)
+    assert keep[:6000].mean() > 0.99
 
 
 def test_radius_filter_removes_lone_points_and_rejects_bad_options():

@@ -41,6 +41,19 @@ def test_every_reef_found_close_and_touching_pairs_included(reef_small):
     assert res.to_dict()["groups"][0]["count"] == 25
 
 
+def test_footprints_follow_the_truth_on_a_dense_survey():
+    # 0.2 m pings: sampling no longer limits the outline, so a bias in it would show
+    sim = simulate("reef-field", seed=5, groups="cross1,cross2", per_group=9, ping_spacing=0.2,
+                   close_pairs=0, boulders=0, debris=0)
+    res = extract_reefs(sim.cloud, reference=_reference(sim))
+    ev = res.evaluation
+    assert ev is not None and (ev.tp, ev.fp, ev.fn) == (18, 0, 0)
+    truth = sim.truth["reefs"]
+    area = np.array([res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches])
+    assert np.mean(np.abs(area)) < 0.07 and np.abs(area).max() < 0.2
+    assert max(d for _, _, d in ev.matches) < 0.1
+
+
 def test_the_papers_method_merges_the_touching_pair(reef_small):
     sim = reef_small
     paper = extract_reefs(sim.cloud, method="paper", reference=_reference(sim))
