@@ -145,6 +145,6 @@ def statistical_outlier(points: np.ndarray, *, k: int = 8, std_ratio: float = 2.
     _positive("std_ratio", std_ratio)
     if len(pts) <= k:
         return np.ones(len(pts), dtype=bool)
-    d, _ = cKDTree(pts).query(pts, k=k + 1, workers=workers)
+    d, _ = cKDTree(pts, balanced_tree=False, compact_nodes=False).query(pts, k=k + 1, workers=workers)
     mean_d = d[:, 1:].mean(axis=1)
     return mean_d <= mean_d.mean() + std_ratio * mean_d.std()

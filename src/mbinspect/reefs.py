@@ -268,7 +268,7 @@ def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
     low = (h > foot_height) & ~core
     mask = core.copy()
     if core.any() and low.any():
-        tree = cKDTree(pts[core, :2])
+        tree = cKDTree(pts[core, :2], balanced_tree=False, compact_nodes=False)
         d, _ = tree.query(pts[low, :2], k=1, distance_upper_bound=link)
         idx = np.flatnonzero(low)
         mask[idx[np.isfinite(d)]] = True

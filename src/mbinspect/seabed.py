@@ -155,9 +155,10 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     opened = ndimage.grey_opening(filled, size=(w, w), mode="nearest")
     # the opening shaves crests and the low percentile sits under the noise: re-estimate
     # each cell from the soundings close to the opened surface (the ground), by median
-    # (the opened surface at each sounding's own cell: bilinear is not needed for a band)
-    ground = np.abs(pts[:, 2] - opened.ravel()[key]) <= ground_band
-    med = _sorted_percentile(*_sorted_cells(key[ground], pts[ground, 2]), 50.0, nx * ny).reshape(nx, ny)
+    # (the opened surface at each sounding's own cell: bilinear is not needed for a band,
+    # and the soundings stay sorted by cell and z)
+    ground = np.abs(zs - opened.ravel()[ks]) <= ground_band
+    med = _sorted_percentile(ks[ground], zs[ground], 50.0, nx * ny).reshape(nx, ny)
     # cells without ground (under a structure) take a Gaussian-weighted mean of the ground
     # cells around them (normalized convolution), not the opened surface, which sits low
     # on slopes and sand-wave flanks; far from any ground the opened surface stays
