@@ -465,7 +465,7 @@ def _merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: 
 
 def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
                 reach: float = 0.6, reef_area: float | None = None, min_area: float = 1.0,
-                split_factor: float = 1.4, own: float = 1.5, bridge: float = 3.5,
+                split_factor: float = 1.5, own: float = 1.5, bridge: float = 3.5,
                 link: float = 0.3, seed: int = 0, height: np.ndarray | None = None,
                 wall: float = 0.7
                 ) -> tuple[list[np.ndarray], list[np.ndarray], _Raster, float]:
@@ -485,8 +485,8 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     A part whose area exceeds
     ``split_factor`` times the single-reef area (``reef_area``, or else the median area of
     the parts of at least ``min_area`` within 25 m, so that each group of a mixed field is
-    judged by its own kind) holds ``round(area / reef_area)`` reefs, at least two, and is
-    split by seeded K-means on its cells.
+    judged by its own kind) holds ``round(area / reef_area)`` reefs and is split by
+    seeded K-means on its cells.
 
     Returns
     -------
