@@ -80,7 +80,7 @@ def main() -> None:
         row = [f"{len(xyz) / 1e6:.2f} M ({len(xyz) / area:.0f} pts/m^2)", ours, f"{len(res.reefs)}/{n_true}",
                paper, f"{len(res_p.reefs)}/{n_true}"]
         try:
-            o3d_t, n_o3d = best_of(lambda p=xyz: open3d_pipeline(p), 1)
+            o3d_t, n_o3d = best_of(lambda p=xyz: open3d_pipeline(p), args.repeat)
             row += [o3d_t, f"{n_o3d}/{n_true}", f"{o3d_t / ours:.1f}x"]
         except ImportError:
             row += ["n/a", "", ""]
