@@ -591,13 +591,60 @@ def _outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.nd
     return np.column_stack([x0 + xy[:, 0], y0 + xy[:, 1]])
 
 
+def _ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: _Raster, seabed: Seabed,
+                 is_reef: np.ndarray | None, x: float, y: float, margin: int = 6
+                 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
+    """The seabed under a reef from the ground soundings in a ring around it.
+
+    A quadratic surface (it follows sand-wave curvature, which the grid's fill under a
+    reef flattens) fitted by trimmed least squares to the non-reef soundings nearest to the
+    raster cells within ``margin`` cells of the reef and within 0.3 m of the seabed
+    surface; None when the ring is too thin to hold one (then the grid is used).
+    """
+    ny, nx = raster.nearest.shape
+    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
+    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
+    idx = np.unique(raster.nearest[j0:j1, i0:i1])
+    idx = idx[idx >= 0]
+    if is_reef is not None:
+        idx = idx[~is_reef[idx]]
+    if len(idx) < 20:
+        return None
+    p = points[idx]
+    p = p[np.abs(seabed.height_above(p)) <= 0.3]
+    if len(p) < 20:
+        return None
+    u, v = p[:, 0] - x, p[:, 1] - y
+    # the ring must surround the reef: soundings in at least 6 of 8 directions
+    if len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) < 6:
+        return None
+    design = np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v])
+    keep = np.ones(len(p), dtype=bool)
+    coef = np.zeros(6)
+    for _ in range(2):
+        coef, *_ = np.linalg.lstsq(design[keep], p[keep, 2], rcond=None)
+        res = p[:, 2] - design @ coef
+        mad = 1.4826 * float(np.median(np.abs(res[keep] - np.median(res[keep]))))
+        keep = np.abs(res) <= max(3 * mad, 0.02)
+        if keep.sum() < 12:
+            return None
+
+    def surface(qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
+        a, b = np.asarray(qx, np.float64) - x, np.asarray(qy, np.float64) - y
+        return coef[0] + coef[1] * a + coef[2] * b + coef[3] * a * a + coef[4] * a * b + coef[5] * b * b
+
+    return surface
+
+
 def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed: Seabed, *,
                  reef_id: int = 0, is_reef: np.ndarray | None = None) -> Reef:
     """Measure one reef from its raster cells and the soundings behind them.
 
     Centre: area centroid of the cells. Top: the median of the reef soundings within
     0.25 m below their 98th percentile (robust to noise). Height: top minus the seabed
-    at the centre. Area: cells x cell². Length, width, orientation: minimum-area
+    at the centre, the seabed there from a quadratic fitted to the ground soundings in a
+    ring around the reef (:func:`_ring_seabed`; the seabed surface where the ring is too
+    thin). Area: cells x cell². Length, width, orientation: minimum-area
     rectangle. Volume: sum over cells of (nearest sounding's z - seabed) x cell².
     Envelope volume: length x width x height (the reef's "empty volume").
     """
@@ -614,11 +661,15 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
     z = points[pidx, 2] if len(pidx) else np.array([np.nan])
     hi = np.nanpercentile(z, 98)
     z_top = float(np.nanmedian(z[z >= hi - 0.25]))
-    z_sea = float(seabed.elevation(np.array([x]), np.array([y]))[0])
+    local = _ring_seabed(points, cj, ci, raster, seabed, is_reef, x, y)
+    if local is not None:
+        z_sea = float(local(np.array([x]), np.array([y]))[0])
+    else:
+        z_sea = float(seabed.elevation(np.array([x]), np.array([y]))[0])
     hull = convex_hull(np.column_stack([cx, cy]))  # the outer cells decide the rectangle
     corners = np.concatenate([hull + [dx, dy] for dx in (-c / 2, c / 2) for dy in (-c / 2, c / 2)])
     rect = min_area_rectangle(corners)
-    sea = seabed.elevation(cx, cy)
+    sea = local(cx, cy) if local is not None else seabed.elevation(cx, cy)
     zc = np.where(near >= 0, points[np.maximum(near, 0), 2], sea)
     volume = float(np.sum(np.maximum(zc - sea, 0.0)) * c * c)
     height = z_top - z_sea
