@@ -426,8 +426,8 @@ def _merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: 
 
     # open unions: (cells, area, single-reef area there, centre)
     pool = {i: (parts[i], float(areas[i]), float(ra[i]), cells_xy(parts[i]).mean(axis=0)) for i in frag}
-    merged = {i: [i] for i in frag}
-    closed: list[int] = []
+    parts = list(parts)
+    gone: set[int] = set()  # parts absorbed into another
     while len(pool) >= 2:
         best = None
         keys = sorted(pool)
@@ -450,15 +450,11 @@ def _merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: 
         _, a, b = best
         pa, aa, ra_a, _ = pool.pop(a)
         pb, ab, ra_b, _ = pool.pop(b)
-        cells = np.concatenate([pa, pb])
-        merged[a] = merged[a] + merged.pop(b)
+        parts[a] = np.concatenate([pa, pb])
+        gone.add(b)
         r = max(ra_a, ra_b)
-        if aa + ab < r:
-            pool[a] = (cells, aa + ab, r, cells_xy(cells).mean(axis=0))
-        else:
-            closed.append(a)
-        parts = parts[:a] + [cells] + parts[a + 1:]
-    gone = {j for i in merged for j in merged[i][1:]}
+        if aa + ab < r:  # still smaller than one reef: open to more fragments
+            pool[a] = (parts[a], aa + ab, r, cells_xy(parts[a]).mean(axis=0))
     out = [p for i, p in enumerate(parts) if i not in gone]
     return out, np.array([len(p) for p in out]) * cell * cell
 
