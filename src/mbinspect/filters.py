@@ -22,6 +22,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .errors import ParameterError
+from .geometry import cell_index
 from .io import check_points
 
 __all__ = ["radius_outlier", "statistical_outlier", "FilterReport"]
@@ -91,7 +92,7 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     if len(todo) == 0:
         return keep
     # the neighbours of a doubtful point lie in the 3 x 3 plan cells of side r around it
-    ci, cj = (((pts[:, k] - lo[k]) / radius).astype(np.int64) for k in range(2))
+    ci, cj = cell_index(pts, lo[0], lo[1], radius)
     nx, ny = int(ci.max()) + 1, int(cj.max()) + 1
     need = np.zeros((nx, ny), dtype=np.uint8)
     need[ci[todo], cj[todo]] = 1
