@@ -54,6 +54,36 @@ def test_footprints_follow_the_truth_on_a_dense_survey():
     assert max(d for _, _, d in ev.matches) < 0.1
 
 
+def test_designs_bring_every_footprint_within_ten_percent(reef_small):
+    # 0.6 m pings on 0.8 m arms: free-form outlines are sampling-limited; a fitted design is not
+    sim = reef_small
+    res = extract_reefs(sim.cloud, reference=_reference(sim), design="cross2,cross1")
+    ev = res.evaluation
+    assert ev is not None and (ev.tp, ev.fp, ev.fn) == (50, 0, 0)
+    truth = sim.truth["reefs"]
+    area = np.array([res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches])
+    assert np.abs(area).max() < 0.1 and abs(area.mean()) < 0.03
+    assert max(d for _, _, d in ev.matches) < 0.3
+    assert all(res.reefs[i].design == truth[j]["kind"] for i, j, _ in ev.matches)
+    d = res.to_dict()
+    assert d["parameters"]["design"][0]["name"] == "cross2"
+    assert {"design", "design_scale", "design_misfit"} <= set(d["reefs"][0])
+
+
+def test_design_fit_measures_the_as_built_size():
+    # reefs built 8 % larger than the design: the fit must measure it, not copy the design
+    sim = simulate("reef-field", seed=2, groups="cross1", per_group=9, close_pairs=0, boulders=0,
+                   debris=0, reef_scale=1.08)
+    res = extract_reefs(sim.cloud, reference=_reference(sim), design="cross1")
+    ev = res.evaluation
+    assert ev is not None and ev.tp == 9
+    scale = np.array([r.design_scale for r in res.reefs])
+    assert abs(np.median(scale) - 1.08) < 0.02
+    truth = sim.truth["reefs"]
+    area = np.array([res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches])
+    assert np.abs(area).max() < 0.1
+
+
 def test_the_papers_method_merges_the_touching_pair(reef_small):
     sim = reef_small
     paper = extract_reefs(sim.cloud, method="paper", reference=_reference(sim))

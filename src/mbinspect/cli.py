@@ -348,6 +348,10 @@ def _add_reef_options(p: argparse.ArgumentParser) -> None:
     t.add_argument("--min-height", type=float, default=0.3, metavar="M", help="reef core height (0.3)")
     t.add_argument("--foot-height", type=float, default=0.15, metavar="M", help="reef foot height (0.15)")
     t.add_argument("--reef-area", type=float, metavar="M2", help="single-reef footprint (default: learnt)")
+    t.add_argument("--design", metavar="NAMES",
+                   help="the reef designs deployed, comma-separated: built-in names (cross2, cross1, "
+                        "hollow, triangle) or JSON design files; each reef is then fitted by its "
+                        "design (centre, area, outline, as-built size factor)")
     t.add_argument("--min-area", type=float, default=1.0, metavar="M2",
                    help="smaller objects are not reefs (1.0)")
     t.add_argument("--group-link", type=float, default=12.0, metavar="M", help="group linking distance (12)")
@@ -359,11 +363,13 @@ def _add_reef_options(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_reefs(args: argparse.Namespace, rep: Reporter) -> int:
+    from .designs import parse_designs
     from .evaluate import read_reference
     from .io import output_dir
     from .reefs import extract_reefs
     from .report import write_reef_outputs
 
+    designs = parse_designs(args.design)  # a bad name or design file fails before the read
     reference = read_reference(args.reference) if args.reference else None
     cloud = _read_input(args, rep)
     t = time.perf_counter()
@@ -373,8 +379,8 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter) -> int:
         max_roughness=args.max_roughness, noise_radius=args.noise_radius,
         noise_neighbors=args.noise_neighbors, seabed=args.seabed,
         plane_threshold=args.plane_threshold, min_height=args.min_height,
-        foot_height=args.foot_height, reef_area=args.reef_area, min_area=args.min_area,
-        group_link=args.group_link, seed=args.seed, progress=rep.progress("reefs"))
+        foot_height=args.foot_height, reef_area=args.reef_area, design=designs or None,
+        min_area=args.min_area, group_link=args.group_link, seed=args.seed, progress=rep.progress("reefs"))
     rep.debug(f"extracted {len(result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
     out = Path(args.out or "reefs-out")
     with output_dir(out, overwrite=args.overwrite, inputs=[args.input]) as tmp:
@@ -481,6 +487,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "completeness). Writes reefs.json, reefs.csv, reefs.geojson, figures and "
                     "report.html.",
         epilog="examples:\n  mbinspect reefs field.laz --reference reefs.csv --out reefs-out\n"
+               "  mbinspect reefs field.laz --design cross2,cross1 --out reefs-out\n"
                "  mbinspect reefs soundings.xyz --method paper --no-figures",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -40,6 +40,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from .designs import DesignFit, ReefDesign, fit_design, parse_designs
 from .errors import DataError, ParameterError
 from .evaluate import Evaluation, match_points
 from .filters import FilterReport, radius_outlier, statistical_outlier
@@ -58,6 +59,7 @@ __all__ = [
     "reef_points",
     "split_reefs",
     "measure_reef",
+    "fit_reef_design",
     "extract_reefs",
     "REEF_METHODS",
 ]
@@ -564,11 +566,16 @@ class Reef:
     n_points: int
     group: int = 0
     outline: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+    design: str = ""
+    design_scale: float = math.nan
+    design_bearing_deg: float = math.nan
+    design_misfit: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
                                              "length", "width", "orientation_deg", "volume",
-                                             "envelope_volume", "n_points", "group")}
+                                             "envelope_volume", "n_points", "group", "design",
+                                             "design_scale", "design_bearing_deg", "design_misfit")}
         d["outline"] = [list(v) for v in self.outline]
         return to_jsonable(d)
 
@@ -683,6 +690,44 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
                 int(len(pidx)), outline=tuple(map(tuple, np.round(outline, 3).tolist())))
 
 
+def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: _Raster, is_reef: np.ndarray,
+                    height: np.ndarray, designs: Sequence[ReefDesign], *, margin: int = 8,
+                    ground: float = 0.15, max_misfit: float = 0.2) -> DesignFit | None:
+    """The design that best explains one reef's soundings, fitted (:func:`fit_design`).
+
+    The soundings are those nearest to the raster cells within ``margin`` cells of the
+    reef: its own reef soundings (inside), and seabed soundings within ``ground`` m of the
+    seabed and other reefs' soundings (outside). Of the designs, the one with the lowest
+    cost wins; None when it leaves more than ``max_misfit`` of the soundings
+    near its edge on the wrong side or its size factor sits at a bound (another kind of
+    object, a broken reef).
+    """
+    if not designs:
+        return None
+    ny, nx = raster.nearest.shape
+    cj, ci = np.divmod(cells, nx)
+    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
+    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
+    idx = np.unique(raster.nearest[j0:j1, i0:i1])
+    idx = idx[idx >= 0]
+    own = raster.nearest.ravel()[cells]
+    own = np.unique(own[own >= 0])
+    own = own[is_reef[own]]
+    inside = np.isin(idx, own)
+    # seabed, and the soundings of other reefs (a touching neighbour stays outside)
+    outside = (~is_reef[idx] & (np.abs(height[idx]) <= ground)) | (is_reef[idx] & ~inside)
+    if inside.sum() < 5 or (inside | outside).sum() < 10:
+        return None
+    c = raster.cell
+    x0, y0 = raster.x0 + (ci.mean() + 0.5) * c, raster.y0 + (cj.mean() + 0.5) * c
+    fits = [fit_design(points[idx, :2], inside, outside, d, x0=x0, y0=y0, height=height[idx])
+            for d in designs]
+    best = min(fits, key=lambda f: f.loss)
+    if best.misfit > max_misfit or not 0.62 < best.scale < 1.55:
+        return None
+    return best
+
+
 # ----------------------------------------------------------------------------- the whole
 
 
@@ -725,6 +770,19 @@ def _coverage(points: np.ndarray, cell: float = 1.0) -> float:
     seen = np.zeros(nx * ny, dtype=bool)
     seen[i * ny + j] = True
     return float(seen.sum() / max(len(seen), 1))
+
+
+def _with_design(reef: Reef, fit: DesignFit | None) -> Reef:
+    """A reef's measures with its centre, area, rectangle and outline from a fitted design."""
+    if fit is None:
+        return reef
+    rect = min_area_rectangle(fit.outline)
+    return replace(reef, x=fit.x, y=fit.y, area=fit.area, length=rect.length, width=rect.width,
+                   orientation_deg=rect.bearing_deg,
+                   envelope_volume=rect.length * rect.width * reef.height,
+                   outline=tuple(map(tuple, np.round(fit.outline, 3).tolist())), design=fit.design,
+                   design_scale=fit.scale, design_bearing_deg=fit.bearing_deg,
+                   design_misfit=fit.misfit)
 
 
 def _groups(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
@@ -776,6 +834,7 @@ def extract_reefs(
     foot_height: float = 0.15,
     cell: float = 0.1,
     reef_area: float | None = None,
+    design: str | Sequence[str | ReefDesign] | None = None,
     min_area: float = 1.0,
     group_link: float = 12.0,
     cluster_eps: float = 0.5,
@@ -814,6 +873,12 @@ def extract_reefs(
         Plan raster cell (m) for footprints.
     reef_area : float, optional
         Expected single-reef footprint (m²); learnt from the data when None.
+    design : str or sequence, optional
+        The reef designs deployed: built-in names (:data:`mbinspect.designs.BUILTIN_DESIGNS`)
+        or JSON design files, comma-separated. Each reef is then also fitted by the design
+        that explains it best (:func:`fit_reef_design`), and its centre, area, rectangle and
+        outline are the fitted design's; its ``design`` fields say which, the as-built size
+        factor and the misfit. A reef no design fits keeps its free-form measures.
     min_area : float
         Objects smaller than this (m²) are other objects, not reefs; default 1.0.
     group_link : float
@@ -838,9 +903,11 @@ def extract_reefs(
         raise ParameterError(f"--noise-neighbors: {noise_neighbors} must be >= 0")
     if reef_area is not None:
         _positive("--reef-area", reef_area)
+    designs = parse_designs(design)
     report = progress or (lambda f: None)
-    params = {k: v for k, v in locals().items()
+    params: dict[str, Any] = {k: v for k, v in locals().items()
               if isinstance(v, (int, float, str, bool, type(None))) and k not in ("report",)}
+    params["design"] = [d.to_dict() for d in designs] or None
     cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
     warnings: list[str] = []
     if crop is not None:
@@ -909,8 +976,12 @@ def extract_reefs(
         else:
             parts, small, raster, used_area = split_reefs(kept, is_reef, cell=cell, reef_area=reef_area,
                                                           height=h_all,
-                                                          min_area=min_area, seed=seed)
+                                                          min_area=min_area, seed=seed,
+                                                          link=0.3)
             reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
+            if designs:
+                reefs = [_with_design(r, fit_reef_design(kept, p, raster, is_reef, h_all, designs))
+                         for r, p in zip(reefs, parts, strict=True)]
             for p in small:
                 o = measure_reef(kept, p, raster, surf, is_reef=is_reef)
                 others.append({"x": o.x, "y": o.y, "height": o.height, "area": o.area,

@@ -289,6 +289,7 @@ def json_dumps(obj: Any) -> str:
 
 _REEF_COLS = ["id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "width",
               "orientation_deg", "volume", "envelope_volume", "n_points", "group"]
+_DESIGN_COLS = ["design", "design_scale", "design_bearing_deg", "design_misfit"]
 
 
 def _hillshade(z: np.ndarray, cell: float) -> np.ndarray:
@@ -389,13 +390,14 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     out.mkdir(parents=True, exist_ok=True)
     d = result.to_dict()
     write_json(d, out / "reefs.json")
-    write_table(d["reefs"], out / "reefs.csv", _REEF_COLS)
+    cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else [])
+    write_table(d["reefs"], out / "reefs.csv", cols)
     features = []
     for r in d["reefs"]:
         ring = r["outline"] + r["outline"][:1] if r["outline"] else []
         features.append({"type": "Feature",
                          "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
-                         "properties": {c: r[c] for c in _REEF_COLS}})
+                         "properties": {c: r[c] for c in cols}})
     with atomic_path(out / "reefs.geojson") as tmp:
         tmp.write_text(json.dumps(to_jsonable({"type": "FeatureCollection", "features": features})),
                        encoding="utf-8")
@@ -427,7 +429,7 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
         sections.append(("Profiles", "{img:groups}"))
     if "heights" in images:
         sections.append(("Heights", "{img:heights}"))
-    sections.append(("Reefs", html_table(d["reefs"], _REEF_COLS)))
+    sections.append(("Reefs", html_table(d["reefs"], cols)))
     if d["others"]:
         sections.append(("Other objects", html_table(d["others"], ["x", "y", "height", "area",
                                                                    "n_points"])))

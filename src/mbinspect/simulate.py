@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from .designs import BUILTIN_DESIGNS
 from .errors import ParameterError
 from .geometry import (
     bearing_to_vector,
@@ -704,41 +705,19 @@ def _material_of(label: np.ndarray, ident: np.ndarray, scene: Scene,
 # ---------------------------------------------------------------------------- reefs
 
 
-def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float
+def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float, scale: float = 1.0
                ) -> tuple[Box, ...]:
     """The boxes of one reef design placed at local (x, y) with its base at ``z_base``.
 
-    Designs (after the reef paper's Fig. 4 and common Chinese reef types):
-
-    ``cross2``  double-layer cross: a 3.0 x 0.8 x 1.0 m cross, and on it a
-                2.6 x 0.6 x 1.0 m cross turned 45 degrees (2.0 m tall);
-    ``cross1``  single-layer cross of 3.0 x 0.8 x 1.2 m bars;
-    ``hollow``  hollow square 3.0 x 3.0 m, 0.3 m walls, 1.5 m tall;
-    ``triangle`` three 3.0 x 0.4 x 1.2 m bars in an equilateral triangle.
+    ``kind`` names one of :data:`mbinspect.designs.BUILTIN_DESIGNS` (``cross2``,
+    ``cross1``, ``hollow``, ``triangle``); ``scale`` is the as-built size relative to the
+    design (every dimension).
     """
-    b = bearing_deg
-    if kind == "cross1":
-        return (Box(x, y, z_base, 3.0, 0.8, 1.2, b), Box(x, y, z_base, 3.0, 0.8, 1.2, b + 90))
-    if kind == "cross2":
-        return (Box(x, y, z_base, 3.0, 0.8, 1.0, b), Box(x, y, z_base, 3.0, 0.8, 1.0, b + 90),
-                Box(x, y, z_base + 1.0, 2.6, 0.6, 1.0, b + 45),
-                Box(x, y, z_base + 1.0, 2.6, 0.6, 1.0, b + 135))
-    if kind == "hollow":
-        out = []
-        for k in range(4):
-            n = bearing_to_vector(b + 90 * k) * 1.35
-            out.append(Box(x + n[0], y + n[1], z_base, 3.0, 0.3, 1.5, b + 90 * k + 90))
-        return tuple(out)
-    if kind == "triangle":
-        out = []
-        r_in = 3.0 / (2 * math.sqrt(3)) - 0.2
-        for k in range(3):
-            n = bearing_to_vector(b + 120 * k) * r_in
-            out.append(Box(x + n[0], y + n[1], z_base, 3.0, 0.4, 1.2, b + 120 * k + 90))
-        return tuple(out)
-    raise ParameterError(
-        f"reef kind {kind!r} is unknown; expected cross2, cross1, hollow or triangle"
-    )
+    if kind not in BUILTIN_DESIGNS:
+        raise ParameterError(
+            f"reef kind {kind!r} is unknown; expected {', '.join(BUILTIN_DESIGNS)}"
+        )
+    return tuple(Box(*b) for b in BUILTIN_DESIGNS[kind].placed(x, y, bearing_deg, z_base, scale))
 
 
 def _reef_gap(a: Reef, b: Reef) -> float:
@@ -826,6 +805,7 @@ class ReefFieldOptions:
     per_group: int = 25  #: reefs per group (a square grid, jittered)
     grid_spacing: float = 6.0  #: nominal spacing of reefs in a group
     jitter: float = 0.8  #: placement scatter of each reef (1 sigma)
+    reef_scale: float = 1.0  #: as-built size of every reef relative to its design
     group_spacing: float = 55.0  #: spacing of group centres
     seabed: float = -17.3  #: seabed elevation at the field centre
     slope_deg: float = 0.3  #: seabed slope
@@ -910,7 +890,7 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
 
     def make(rid: int, kind: str, x: float, y: float, b: float, g: int) -> Reef:
         z = float(seabed.elevation(x, y)) - 0.1
-        return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z), group=g)
+        return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, opt.reef_scale), group=g)
 
     for g, kind in enumerate(kinds):
         gx = (g % cols - (cols - 1) / 2) * opt.group_spacing
@@ -1077,7 +1057,7 @@ def simulate(preset: str, *, seed: int = 0,
 
 def _check_options(opt: Any, sonar: Sonar) -> None:
     positive = {"side", "radius", "ping_spacing", "grid_spacing", "group_spacing",
-                "line_spacing", "per_group", "line_extent", "swath_deg", "n_beams"}
+                "line_spacing", "per_group", "line_extent", "swath_deg", "n_beams", "reef_scale"}
     for obj in (opt, sonar):
         for f in dataclasses.fields(obj):
             v = getattr(obj, f.name)

@@ -1,0 +1,105 @@
+"""Reef designs: geometry, files, and the pose-and-size fit against known truth."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from mbinspect.designs import BUILTIN_DESIGNS, DesignBox, ReefDesign, fit_design, parse_designs, read_design
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.geometry import polygon_area
+from mbinspect.simulate import Reef, Seabed, _reef_truth, reef_boxes
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN_DESIGNS))
+def test_area_and_outline_match_the_simulators_truth(name):
+    d = BUILTIN_DESIGNS[name]
+    reef = Reef(1, name, 0.0, 0.0, 30.0, reef_boxes(name, 0.0, 0.0, 30.0, -10.0))
+    truth = _reef_truth(reef, Seabed(z0=-10.0, roughness=0.0), (0.0, 0.0), cell=0.01)
+    assert d.area == pytest.approx(truth["area"], rel=0.01)
+    assert np.hypot(*(d.centroid - [truth["x"], truth["y"]])) < 0.01
+    if name.startswith("cross"):  # the outline is the outer boundary: the hollow and triangle enclose a hole
+        assert abs(polygon_area(d.outline(0.0, 0.0, 30.0))) == pytest.approx(d.area, rel=0.01)
+    assert d.height == pytest.approx(max(b.z0 + b.height for b in reef.boxes) + 10.0)
+
+
+def test_signed_distance_of_one_box():
+    d = ReefDesign("slab", (DesignBox(0, 0, 0, 4.0, 2.0, 1.0, 90.0),))  # 4 m east-west, 2 m north-south
+    pts = np.array([[0.0, 0.0], [3.0, 0.0], [0.0, 1.5], [3.0, 2.0], [1.9, 0.0]])
+    assert d.signed_distance(pts, 0.0, 0.0, 0.0) == pytest.approx([-1.0, 1.0, 0.5, math.sqrt(2), -0.1])
+    # turned 90 degrees it runs north-south; doubled in size
+    assert d.signed_distance(np.array([[0.0, 3.0]]), 0.0, 0.0, 90.0, 2.0)[0] == pytest.approx(-1.0)
+
+
+@pytest.mark.parametrize("name,scale", [("cross1", 1.0), ("cross2", 1.07), ("hollow", 0.95),
+                                        ("triangle", 1.0)])
+def test_fit_recovers_pose_and_size_from_inside_and_outside_soundings(name, scale):
+    d = BUILTIN_DESIGNS[name]
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(-3.2, 3.2, (3000, 2)) + [100.0, 200.0]
+    x, y, b = 100.3, 199.8, 17.0
+    inside = d.signed_distance(pts, x, y, b, scale) < 0
+    f = fit_design(pts, inside, ~inside, d, x0=100.0, y0=200.0)
+    assert np.hypot(f.x - x, f.y - y) < 0.03  # the built-in designs' centroid is their origin
+    period = 360.0 / d.symmetry
+    err = (f.bearing_deg - b) % period
+    assert min(err, period - err) < 1.0
+    assert f.scale == pytest.approx(scale, abs=0.01)
+    assert f.area == pytest.approx(d.area * scale**2, rel=0.02)
+    assert f.misfit < 0.02
+
+
+def test_side_wall_soundings_pin_the_edge_where_no_seabed_is_seen():
+    # soundings on the reef only (as if the seabed around were in shadow), some on the walls:
+    # the fit must not drift outward, and heights tell a side wall from a top
+    d = BUILTIN_DESIGNS["cross1"]
+    rng = np.random.default_rng(3)
+    top = rng.uniform(-1.6, 1.6, (1500, 2))
+    top = top[d.signed_distance(top, 0.0, 0.0, 0.0) < -0.02]
+    t = rng.uniform(-1.5, 1.5, 400)
+    side = rng.integers(0, 2, 400) * 2 - 1
+    walls = np.concatenate([np.column_stack([t, side * 0.4]), np.column_stack([side * 0.4, t])])
+    walls = walls[np.abs(d.signed_distance(walls, 0.0, 0.0, 0.0)) < 1e-9]
+    ground = rng.uniform(-3, 3, (300, 2))
+    ground = ground[d.signed_distance(ground, 0.0, 0.0, 0.0) > 1.0]  # far: no help near the edges
+    pts = np.vstack([top, walls, ground])
+    h = np.concatenate([np.full(len(top), 1.1), rng.uniform(0.2, 0.8, len(walls)), np.zeros(len(ground))])
+    inside = np.arange(len(pts)) < len(top) + len(walls)
+    f = fit_design(pts, inside, ~inside, d, x0=0.1, y0=-0.1, height=h)
+    assert f.scale == pytest.approx(1.0, abs=0.01)
+    assert np.hypot(f.x, f.y) < 0.02
+
+
+def test_design_files_and_names(tmp_path):
+    path = tmp_path / "cube.json"
+    path.write_text(json.dumps({"name": "cube3", "symmetry": 4,
+                                "boxes": [{"length": 3, "width": 3, "height": 3}]}))
+    d = read_design(path)
+    assert (d.name, d.symmetry, d.area) == ("cube3", 4, pytest.approx(9.0, rel=0.01))
+    assert [x.name for x in parse_designs(f"cross2, {path}")] == ["cross2", "cube3"]
+    assert parse_designs(None) == ()
+    with pytest.raises(ParameterError, match="'cross3' is neither a built-in design"):
+        parse_designs("cross3")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"boxes": [{"length": 3, "width": -1, "height": 1}]}')
+    with pytest.raises(InputError, match=r"bad.json: design 'bad', box 1: .* must be > 0"):
+        read_design(bad)
+    bad.write_text('{"boxes": [{"length": 3}]}')
+    with pytest.raises(InputError, match=r"bad.json: box 1: expected numbers length, width, height"):
+        read_design(bad)
+    bad.write_text("not json")
+    with pytest.raises(InputError, match="not a JSON design file"):
+        read_design(bad)
+
+
+def test_hollow_square_has_its_hole_and_its_outer_walls():
+    d = BUILTIN_DESIGNS["hollow"]
+    # the centre lies in the hole, 1.2 m from the inner faces; a corner of the 3 x 3 m square
+    # lies on the outer edge whatever the bearing
+    assert d.signed_distance(np.array([[7.0, 8.0]]), 7.0, 8.0, 25.0)[0] == pytest.approx(1.2)
+    corner = np.array([7.0, 8.0]) + 1.5 * math.sqrt(2) * np.array([math.sin(math.radians(70.0)),
+                                                                  math.cos(math.radians(70.0))])
+    assert d.signed_distance(corner[None], 7.0, 8.0, 25.0)[0] == pytest.approx(0.0, abs=1e-9)
