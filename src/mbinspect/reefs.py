@@ -690,9 +690,59 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
                 int(len(pidx)), outline=tuple(map(tuple, np.round(outline, 3).tolist())))
 
 
+def _own_soundings(cells: np.ndarray, raster: _Raster, is_reef: np.ndarray) -> np.ndarray:
+    """The reef soundings nearest to a reef's raster cells (indices, sorted)."""
+    own = raster.nearest.ravel()[cells]
+    own = np.unique(own[own >= 0])
+    return own[is_reef[own]]
+
+
+def _refit_neighbours(points: np.ndarray, parts: Sequence[np.ndarray], raster: _Raster,
+                      is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
+                      fits: list[DesignFit | None], heights: Sequence[float], rounds: int = 2
+                      ) -> list[DesignFit | None]:
+    """Share the soundings of touching reefs by their fitted designs, and fit again.
+
+    Where two reefs lie close (their fitted footprints within 0.5 m), the split between
+    them came from the free-form raster; each of their soundings now goes to the fitted
+    design it lies deeper inside (smaller signed distance), and both are fitted again.
+    """
+    by_name = {d.name: d for d in designs}
+    fits = list(fits)
+    ok = [k for k, f in enumerate(fits) if f is not None]
+    if len(ok) < 2:
+        return fits
+    cen = np.array([[fits[k].x, fits[k].y] for k in ok])  # type: ignore[union-attr]
+    rad = np.array([by_name[fits[k].design].radius * fits[k].scale for k in ok])  # type: ignore[union-attr]
+    tree = cKDTree(cen)
+    pairs = [(ok[a], ok[b]) for a, b in sorted(tree.query_pairs(2 * float(rad.max()) + 0.5))
+             if np.hypot(*(cen[a] - cen[b])) < rad[a] + rad[b] + 0.5]
+    for i, j in pairs:
+        own = np.union1d(_own_soundings(parts[i], raster, is_reef), _own_soundings(parts[j], raster, is_reef))
+        window = np.concatenate([parts[i], parts[j]])
+        for _ in range(rounds):
+            fi, fj = fits[i], fits[j]
+            if fi is None or fj is None:
+                break
+            di = by_name[fi.design].signed_distance(points[own, :2], fi.origin[0], fi.origin[1],
+                                                    fi.bearing_deg, fi.scale)
+            dj = by_name[fj.design].signed_distance(points[own, :2], fj.origin[0], fj.origin[1],
+                                                    fj.bearing_deg, fj.scale)
+            mine = di <= dj
+            if mine.all() or not mine.any():
+                break
+            fits[i] = fit_reef_design(points, parts[i], raster, is_reef, height, designs,
+                                      reef_height=heights[i], own=own[mine], window=window)
+            fits[j] = fit_reef_design(points, parts[j], raster, is_reef, height, designs,
+                                      reef_height=heights[j], own=own[~mine], window=window)
+    return fits
+
+
 def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: _Raster, is_reef: np.ndarray,
                     height: np.ndarray, designs: Sequence[ReefDesign], *, margin: int = 8,
-                    ground: float = 0.15, max_misfit: float = 0.2) -> DesignFit | None:
+                    ground: float = 0.15, max_misfit: float = 0.2, reef_height: float | None = None,
+                    own: np.ndarray | None = None, window: np.ndarray | None = None
+                    ) -> DesignFit | None:
     """The design that best explains one reef's soundings, fitted (:func:`fit_design`).
 
     The soundings are those nearest to the raster cells within ``margin`` cells of the
@@ -700,26 +750,31 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: _Raster, is_r
     seabed and other reefs' soundings (outside). Of the designs, the one with the lowest
     cost wins; None when it leaves more than ``max_misfit`` of the soundings
     near its edge on the wrong side or its size factor sits at a bound (another kind of
-    object, a broken reef).
+    object, a broken reef). Given the reef's measured ``reef_height``, only the designs
+    whose height is within 0.3 m + 20 % of it are tried (a single-layer cross under noise
+    can look like a double-layer one whose upper layer was missed; its height tells), all
+    of them when none is. ``own`` may give the reef's soundings (indices into ``points``)
+    and ``window`` the cells whose surroundings are searched (default: ``cells``).
     """
+    if reef_height is not None and math.isfinite(reef_height):
+        near = [d for d in designs if abs(d.height - reef_height) <= 0.3 + 0.2 * d.height]
+        designs = near or designs
     if not designs:
         return None
     ny, nx = raster.nearest.shape
-    cj, ci = np.divmod(cells, nx)
-    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
-    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
+    wj, wi = np.divmod(cells if window is None else window, nx)
+    j0, j1 = max(int(wj.min()) - margin, 0), min(int(wj.max()) + margin + 1, ny)
+    i0, i1 = max(int(wi.min()) - margin, 0), min(int(wi.max()) + margin + 1, nx)
     idx = np.unique(raster.nearest[j0:j1, i0:i1])
     idx = idx[idx >= 0]
-    own = raster.nearest.ravel()[cells]
-    own = np.unique(own[own >= 0])
-    own = own[is_reef[own]]
+    if own is None:
+        own = _own_soundings(cells, raster, is_reef)
     inside = np.isin(idx, own)
     # seabed, and the soundings of other reefs (a touching neighbour stays outside)
     outside = (~is_reef[idx] & (np.abs(height[idx]) <= ground)) | (is_reef[idx] & ~inside)
     if inside.sum() < 5 or (inside | outside).sum() < 10:
         return None
-    c = raster.cell
-    x0, y0 = raster.x0 + (ci.mean() + 0.5) * c, raster.y0 + (cj.mean() + 0.5) * c
+    x0, y0 = points[own, 0].mean(), points[own, 1].mean()
     fits = [fit_design(points[idx, :2], inside, outside, d, x0=x0, y0=y0, height=height[idx])
             for d in designs]
     best = min(fits, key=lambda f: f.loss)
@@ -980,8 +1035,11 @@ def extract_reefs(
                                                           link=0.3)
             reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
             if designs:
-                reefs = [_with_design(r, fit_reef_design(kept, p, raster, is_reef, h_all, designs))
-                         for r, p in zip(reefs, parts, strict=True)]
+                fits = [fit_reef_design(kept, p, raster, is_reef, h_all, designs, reef_height=r.height)
+                        for r, p in zip(reefs, parts, strict=True)]
+                fits = _refit_neighbours(kept, parts, raster, is_reef, h_all, designs, fits,
+                                         [r.height for r in reefs])
+                reefs = [_with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
             for p in small:
                 o = measure_reef(kept, p, raster, surf, is_reef=is_reef)
                 others.append({"x": o.x, "y": o.y, "height": o.height, "area": o.area,
