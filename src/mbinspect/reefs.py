@@ -697,6 +697,44 @@ def _own_soundings(cells: np.ndarray, raster: _Raster, is_reef: np.ndarray) -> n
     return own[is_reef[own]]
 
 
+def _merge_explained_together(points: np.ndarray, parts: list[np.ndarray], raster: _Raster,
+                              is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
+                              fits: list[DesignFit | None], heights: list[float], *,
+                              max_misfit: float = 0.1
+                              ) -> tuple[list[np.ndarray], list[DesignFit | None], list[float]]:
+    """Join two neighbouring parts that one fitted design explains at least as well as two.
+
+    The thin walls of a hollow reef can fall between pings so that the reef shows as two
+    parts, each of which a whole design can be laid over in more than one place. Parts
+    whose centres lie closer than the largest design's diameter are fitted together; when
+    one design leaves at most ``max_misfit`` of the soundings near its edge on the wrong
+    side and costs no more than the two separate fits (a part no design fits costs
+    without bound), they are one reef. Two reefs side by side are not: one design cannot
+    hold both, and their soundings outside it cost.
+    """
+    if len(parts) < 2:
+        return parts, fits, heights
+    nx = raster.labels.shape[1]
+    cen = np.array([[(p % nx).mean(), (p // nx).mean()] for p in parts]) * raster.cell
+    reach = 2 * max(d.radius for d in designs)
+    pairs = sorted(cKDTree(cen).query_pairs(reach),
+                   key=lambda ij: float(np.hypot(*(cen[ij[0]] - cen[ij[1]]))))
+    parts, fits, heights = list(parts), list(fits), list(heights)
+    alive = [True] * len(parts)
+    for i, j in pairs:
+        if not (alive[i] and alive[j]):
+            continue
+        union = np.concatenate([parts[i], parts[j]])
+        f = fit_reef_design(points, union, raster, is_reef, height, designs,
+                            reef_height=max(heights[i], heights[j]), max_misfit=max_misfit)
+        apart = sum(math.inf if g is None else g.loss for g in (fits[i], fits[j]))
+        if f is not None and f.loss <= apart:
+            parts[i], fits[i], heights[i] = union, f, max(heights[i], heights[j])
+            alive[j] = False
+    keep = [k for k in range(len(parts)) if alive[k]]
+    return [parts[k] for k in keep], [fits[k] for k in keep], [heights[k] for k in keep]
+
+
 def _refit_neighbours(points: np.ndarray, parts: Sequence[np.ndarray], raster: _Raster,
                       is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
                       fits: list[DesignFit | None], heights: Sequence[float], rounds: int = 2
@@ -1037,8 +1075,12 @@ def extract_reefs(
             if designs:
                 fits = [fit_reef_design(kept, p, raster, is_reef, h_all, designs, reef_height=r.height)
                         for r, p in zip(reefs, parts, strict=True)]
-                fits = _refit_neighbours(kept, parts, raster, is_reef, h_all, designs, fits,
-                                         [r.height for r in reefs])
+                n_parts = len(parts)
+                parts, fits, heights = _merge_explained_together(kept, parts, raster, is_reef, h_all,
+                                                                 designs, fits, [r.height for r in reefs])
+                if len(parts) < n_parts:
+                    reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
+                fits = _refit_neighbours(kept, parts, raster, is_reef, h_all, designs, fits, heights)
                 reefs = [_with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
             for p in small:
                 o = measure_reef(kept, p, raster, surf, is_reef=is_reef)
