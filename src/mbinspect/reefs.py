@@ -177,7 +177,7 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
 
 def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5,
                confidence: float = 0.99, cell: float = 0.5, window: float = 6.0,
-               max_plane_dev: float = 0.08, sample: int = 200_000, seed: int = 0,
+               max_plane_dev: float = 0.08, sample: int = 100_000, seed: int = 0,
                grid: GridSurface | None = None, grid_height: np.ndarray | None = None
                ) -> tuple[Seabed, dict[str, Any]]:
     """The seabed under every point.
@@ -382,9 +382,18 @@ def _local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: 
                      for n in near])
 
 
+def _row_ends(xy: np.ndarray) -> np.ndarray:
+    """The first and last point of every row (equal y) of a point set: the same convex
+    hull as all of them (every point lies between its row's ends), far fewer points."""
+    order = np.lexsort((xy[:, 0], xy[:, 1]))
+    y = xy[order, 1]
+    new = y[1:] != y[:-1]
+    return xy[order[np.r_[True, new] | np.r_[new, True]]]
+
+
 def _diameter(xy: np.ndarray) -> float:
     """Largest distance between two of the points (on their convex hull)."""
-    h = convex_hull(xy)
+    h = convex_hull(_row_ends(xy))
     if len(h) < 2:
         return 0.0
     d = h[:, None, :] - h[None, :, :]
@@ -674,7 +683,7 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
         def local(qx: np.ndarray, qy: np.ndarray, _r=ring) -> np.ndarray:
             return 0.5 * (_r(qx, qy) + seabed.elevation(qx, qy))
     z_sea = float((local or seabed.elevation)(np.array([x]), np.array([y]))[0])
-    hull = convex_hull(np.column_stack([cx, cy]))  # the outer cells decide the rectangle
+    hull = convex_hull(_row_ends(np.column_stack([cx, cy])))  # the outer cells decide the rectangle
     corners = np.concatenate([hull + [dx, dy] for dx in (-c / 2, c / 2) for dy in (-c / 2, c / 2)])
     rect = min_area_rectangle(corners)
     sea = local(cx, cy) if local is not None else seabed.elevation(cx, cy)
