@@ -74,11 +74,12 @@ def main() -> None:
             out.append([c, m, len(rs), tp, fp, fn,
                         f"{100 * tp / max(tp + fp, 1):.2f}", f"{100 * tp / max(tp + fn, 1):.2f}",
                         f"{sum(r['both'] for r in rs)}/{sum(r['pairs'] for r in rs)}",
-                        f"{h.max():.3f}", f"{ce.max():.2f}",
-                        f"{100 * a.mean():+.1f} %", f"{100 * np.mean(np.abs(a) <= 0.1):.0f} %",
+                        f"{h.max():.3f}", f"{ce.max():.2f}", f"{int(np.sum(ce <= 0.3))}/{len(ce)}",
+                        f"{100 * a.mean():+.1f} %", f"{int(np.sum(np.abs(a) <= 0.1))}/{len(a)}",
                         f"{100 * np.abs(a).max():.0f} %"])
     print(table(["config", "method", "seeds", "TP", "FP", "FN", "correct %", "complete %",
-                 "close pairs both found", "height err max m", "centre err max m", "area err mean",
+                 "close pairs both found", "height err max m", "centre err max m", "centre within 0.3 m",
+                 "area err mean",
                  "area within 10 %", "area err max"], out))
 
 

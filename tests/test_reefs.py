@@ -70,6 +70,21 @@ def test_designs_bring_every_footprint_within_ten_percent(reef_small):
     assert {"design", "design_scale", "design_misfit"} <= set(d["reefs"][0])
 
 
+def test_hollow_reefs_broken_between_pings_are_whole_again_with_their_design():
+    # thin walls square to the track fall between 0.55 m pings: free-form parts are halves
+    sim = simulate("reef-field", seed=1, groups="hollow", per_group=16, close_pairs=0, boulders=0,
+                   debris=0)
+    free = extract_reefs(sim.cloud, reference=_reference(sim)).evaluation
+    res = extract_reefs(sim.cloud, reference=_reference(sim), design="hollow")
+    ev = res.evaluation
+    assert free is not None and ev is not None
+    assert free.fp + free.fn > 0 or max(d for _, _, d in free.matches) > 0.5  # the problem is real
+    assert (ev.tp, ev.fp, ev.fn) == (16, 0, 0)
+    assert max(d for _, _, d in ev.matches) < 0.3
+    truth = sim.truth["reefs"]
+    assert max(abs(res.reefs[i].area / truth[j]["area"] - 1) for i, j, _ in ev.matches) < 0.1
+
+
 def test_design_fit_measures_the_as_built_size():
     # reefs built 8 % larger than the design: the fit must measure it, not copy the design
     sim = simulate("reef-field", seed=2, groups="cross1", per_group=9, close_pairs=0, boulders=0,

@@ -730,9 +730,16 @@ def _merge_explained_together(points: np.ndarray, parts: list[np.ndarray], raste
                    key=lambda ij: float(np.hypot(*(cen[ij[0]] - cen[ij[1]]))))
     parts, fits, heights = list(parts), list(fits), list(heights)
     alive = [True] * len(parts)
+    by_name = {d.name: d for d in designs}
     for i, j in pairs:
         if not (alive[i] and alive[j]):
             continue
+        fi, fj = fits[i], fits[j]
+        if fi is not None and fj is not None:
+            # two reefs each fitted by a design, the fitted footprints well apart: no question
+            ri, rj = by_name[fi.design].radius * fi.scale, by_name[fj.design].radius * fj.scale
+            if math.hypot(fi.x - fj.x, fi.y - fj.y) >= 0.8 * (ri + rj):
+                continue
         union = np.concatenate([parts[i], parts[j]])
         f = fit_reef_design(points, union, raster, is_reef, height, designs,
                             reef_height=max(heights[i], heights[j]), max_misfit=max_misfit)
