@@ -6,6 +6,7 @@ For each size (millions of soundings) a ``reef-field`` survey is simulated at th
 needed, then timed in the same run:
 
 * ours: :func:`mbinspect.reefs.extract_reefs` (filters, terrain, seabed, reefs, measures);
+* ours + design: the same with ``design="cross2,cross1"`` (each reef fitted by its design);
 * ours (paper method): the same library with ``method="paper"``;
 * Open3D (if installed, ``pip install -e .[bench]``): ``remove_radius_outlier`` (r 0.5 m,
   noise if <= 3 neighbours), ``segment_plane`` (0.5 m, 3 points, 1000 iterations) and
@@ -76,9 +77,10 @@ def main() -> None:
         n_true = len(sim.truth["reefs"])
         ours, res = best_of(lambda c=sim.cloud: extract_reefs(c), args.repeat)
         paper, res_p = best_of(lambda c=sim.cloud: extract_reefs(c, method="paper"), args.repeat)
+        designed, res_d = best_of(lambda c=sim.cloud: extract_reefs(c, design="cross2,cross1"), args.repeat)
         area = float(np.prod(np.ptp(xyz[:, :2], axis=0)))
         row = [f"{len(xyz) / 1e6:.2f} M ({len(xyz) / area:.0f} pts/m^2)", ours, f"{len(res.reefs)}/{n_true}",
-               paper, f"{len(res_p.reefs)}/{n_true}"]
+               designed, paper, f"{len(res_p.reefs)}/{n_true}"]
         try:
             o3d_t, n_o3d = best_of(lambda p=xyz: open3d_pipeline(p), args.repeat)
             row += [o3d_t, f"{n_o3d}/{n_true}", f"{o3d_t / ours:.1f}x"]
@@ -97,7 +99,7 @@ def main() -> None:
         except ImportError:
             frow += ["n/a", "", ""]
         filter_rows.append(frow)
-    print(table(["soundings", "ours s", "reefs", "ours (paper method) s", "reefs",
+    print(table(["soundings", "ours s", "reefs", "ours + design s", "ours (paper method) s", "reefs",
                  "Open3D s", "clusters", "Open3D / ours"], rows))
     print(table(["radius filter", "ours s", "removed", "Open3D s", "removed", "Open3D / ours"],
                 filter_rows))
