@@ -75,7 +75,9 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     distinct or collinear points are returned as they are)."""
     from scipy.spatial import ConvexHull, QhullError
 
-    pts = np.unique(np.asarray(points, dtype=np.float64)[:, :2], axis=0)
+    pts = np.asarray(points, dtype=np.float64)[:, :2]
+    if len(pts) < 50:  # few points may be all duplicates or collinear: settle them exactly
+        pts = np.unique(pts, axis=0)
     if len(pts) < 3:
         return pts
     try:
@@ -147,16 +149,14 @@ def min_area_rectangle(points: np.ndarray) -> Rectangle:
         return Rectangle(float(c[0]), float(c[1]), length, 0.0, vector_to_bearing(d, axial=True))
     edges = np.roll(hull, -1, axis=0) - hull
     angles = np.unique(np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2))
-    best: tuple[float, float, float, float, float, float] | None = None
-    for ang in angles:
-        c, s = math.cos(ang), math.sin(ang)
-        u = hull @ np.array([c, s])
-        v = hull @ np.array([-s, c])
-        area = float((u.max() - u.min()) * (v.max() - v.min()))
-        if best is None or area < best[0] - 1e-12:
-            best = (area, ang, u.min(), u.max(), v.min(), v.max())
-    assert best is not None
-    _, ang, u0, u1, v0, v1 = best
+    # every edge direction at once: projections (angles, hull points) on both axes
+    ca, sa = np.cos(angles), np.sin(angles)
+    u = np.outer(ca, hull[:, 0]) + np.outer(sa, hull[:, 1])
+    v = np.outer(-sa, hull[:, 0]) + np.outer(ca, hull[:, 1])
+    umin, umax, vmin, vmax = u.min(axis=1), u.max(axis=1), v.min(axis=1), v.max(axis=1)
+    areas = (umax - umin) * (vmax - vmin)
+    k = int(np.flatnonzero(areas <= areas.min() + 1e-12)[0])  # the first of equal minima
+    ang, u0, u1, v0, v1 = float(angles[k]), umin[k], umax[k], vmin[k], vmax[k]
     c, s = math.cos(ang), math.sin(ang)
     du, dv = u1 - u0, v1 - v0
     centre = np.array([c, s]) * (u0 + u1) / 2 + np.array([-s, c]) * (v0 + v1) / 2
