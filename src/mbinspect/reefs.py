@@ -1085,17 +1085,17 @@ def extract_reefs(
         else:
             parts, small, raster, used_area = split_reefs(kept, is_reef, cell=cell, reef_area=reef_area,
                                                           height=h_all,
-                                                          min_area=min_area, seed=seed,
-                                                          link=0.3)
+                                                          min_area=min_area, seed=seed)
             reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
             if designs:
                 fits = [fit_reef_design(kept, p, raster, is_reef, h_all, designs, reef_height=r.height)
                         for r, p in zip(reefs, parts, strict=True)]
-                n_parts = len(parts)
+                measured = {id(p): r for p, r in zip(parts, reefs, strict=True)}
                 parts, fits, heights = _merge_explained_together(kept, parts, raster, is_reef, h_all,
                                                                  designs, fits, [r.height for r in reefs])
-                if len(parts) < n_parts:
-                    reefs = [measure_reef(kept, p, raster, surf, reef_id=0, is_reef=is_reef) for p in parts]
+                # only the joined parts are new arrays: measure those again
+                reefs = [measured.get(id(p)) or measure_reef(kept, p, raster, surf, is_reef=is_reef)
+                         for p in parts]
                 fits = _refit_neighbours(kept, parts, raster, is_reef, h_all, designs, fits, heights)
                 reefs = [_with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
             for p in small:
