@@ -372,12 +372,14 @@ def fit_design(xy: np.ndarray, inside: np.ndarray, outside: np.ndarray, design: 
     """Fit a design's pose (x, y, bearing) and size factor to the soundings around a reef.
 
     Costs, each ``(distance / sigma)²`` up to ``(cap / sigma)²``: a reef sounding outside
-    the footprint of the boxes that reach its height, a seabed sounding inside the
-    footprint of the boxes standing on the seabed, and a reef sounding on a side wall (its
-    height above the seabed within ``band`` of no box top) away from that footprint's edge
-    either way. Nothing pulls a sounding that is on its right side, so an edge facing an
-    acoustic shadow (reef soundings and no seabed beyond) does not drift outward; side-wall
-    soundings pin the edges they were measured on.
+    the footprint of the boxes that reach its height, a seabed sounding inside any box,
+    and a reef sounding on a side wall (its height within ``band`` of no box top, heights
+    taken relative to the reef's own top set on the design's) away from that footprint's
+    edge either way. Nothing pulls a sounding that is on its right side, so an edge facing
+    an acoustic shadow (reef soundings and no seabed beyond) does not drift outward;
+    side-wall soundings pin the edges they were measured on. The bearing is scanned over
+    one symmetry period; from the best start (and the best one 20 degrees or more from
+    it) Levenberg-Marquardt runs twice, with four times the tolerance and cap first.
 
     Parameters
     ----------
