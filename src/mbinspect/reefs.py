@@ -603,6 +603,23 @@ def _outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.nd
     return np.column_stack([x0 + xy[:, 0], y0 + xy[:, 1]])
 
 
+def _soundings_around(raster: _Raster, cj: np.ndarray, ci: np.ndarray, margin: int) -> np.ndarray:
+    """The soundings nearest to the raster cells in the bounding box of cells (cj, ci)
+    widened by ``margin`` cells (indices, sorted)."""
+    ny, nx = raster.nearest.shape
+    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
+    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
+    idx = np.unique(raster.nearest[j0:j1, i0:i1])
+    return idx[idx >= 0]
+
+
+def _own_soundings(cells: np.ndarray, raster: _Raster, is_reef: np.ndarray | None) -> np.ndarray:
+    """The (reef, given ``is_reef``) soundings nearest to a reef's raster cells (indices, sorted)."""
+    own = raster.nearest.ravel()[cells]
+    own = np.unique(own[own >= 0])
+    return own if is_reef is None else own[is_reef[own]]
+
+
 def _ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: _Raster, seabed: Seabed,
                  is_reef: np.ndarray | None, x: float, y: float, margin: int = 6
                  ) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
@@ -613,11 +630,7 @@ def _ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: _Ra
     raster cells within ``margin`` cells of the reef and within 0.3 m of the seabed
     surface; None when the ring is too thin to hold one (then the grid is used).
     """
-    ny, nx = raster.nearest.shape
-    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
-    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
-    idx = np.unique(raster.nearest[j0:j1, i0:i1])
-    idx = idx[idx >= 0]
+    idx = _soundings_around(raster, cj, ci, margin)
     if is_reef is not None:
         idx = idx[~is_reef[idx]]
     if len(idx) < 20:
@@ -671,9 +684,7 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
     cy = raster.y0 + (cj + 0.5) * c
     x, y = float(cx.mean()), float(cy.mean())
     near = raster.nearest.ravel()[cells]
-    pidx = np.unique(near[near >= 0])
-    if is_reef is not None:
-        pidx = pidx[is_reef[pidx]]
+    pidx = _own_soundings(cells, raster, is_reef)
     z = points[pidx, 2] if len(pidx) else np.array([np.nan])
     hi = np.nanpercentile(z, 98)
     z_top = float(np.nanmedian(z[z >= hi - 0.25]))
@@ -697,13 +708,6 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: _Raster, seabed:
     return Reef(reef_id, x, y, z_sea, z_top, height, float(len(cells) * c * c), rect.length,
                 rect.width, rect.bearing_deg, volume, rect.length * rect.width * height,
                 int(len(pidx)), outline=tuple(map(tuple, np.round(outline, 3).tolist())))
-
-
-def _own_soundings(cells: np.ndarray, raster: _Raster, is_reef: np.ndarray) -> np.ndarray:
-    """The reef soundings nearest to a reef's raster cells (indices, sorted)."""
-    own = raster.nearest.ravel()[cells]
-    own = np.unique(own[own >= 0])
-    return own[is_reef[own]]
 
 
 def _merge_explained_together(points: np.ndarray, parts: list[np.ndarray], raster: _Raster,
@@ -815,12 +819,8 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: _Raster, is_r
         designs = near or designs
     if not designs:
         return None
-    ny, nx = raster.nearest.shape
-    wj, wi = np.divmod(cells if window is None else window, nx)
-    j0, j1 = max(int(wj.min()) - margin, 0), min(int(wj.max()) + margin + 1, ny)
-    i0, i1 = max(int(wi.min()) - margin, 0), min(int(wi.max()) + margin + 1, nx)
-    idx = np.unique(raster.nearest[j0:j1, i0:i1])
-    idx = idx[idx >= 0]
+    wj, wi = np.divmod(cells if window is None else window, raster.nearest.shape[1])
+    idx = _soundings_around(raster, wj, wi, margin)
     if own is None:
         own = _own_soundings(cells, raster, is_reef)
     inside = np.isin(idx, own)
