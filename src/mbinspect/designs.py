@@ -43,7 +43,7 @@ from scipy.optimize import least_squares
 
 from .errors import FileAccessError, InputError, ParameterError
 from .geometry import bearing_to_vector
-from .io import to_jsonable
+from .outputs import to_jsonable
 
 __all__ = [
     "DesignBox",

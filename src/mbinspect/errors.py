@@ -19,7 +19,15 @@ __all__ = [
 
 
 class MBInspectError(Exception):
-    """Base class of every error mbinspect raises on purpose."""
+    """Base class of every error mbinspect raises on purpose.
+
+    ``option`` is the library name of the option to blame, when there is one (the message
+    then starts with ``"<option>: "``); the command line prints it under the flag's name.
+    """
+
+    def __init__(self, message: str = "", *, option: str | None = None) -> None:
+        super().__init__(message)
+        self.option = option
 
 
 class FileAccessError(MBInspectError, OSError):

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from .errors import FileAccessError, InputError, ParameterError
-from .io import to_jsonable
+from .outputs import to_jsonable
 
 __all__ = ["Evaluation", "match_points", "read_reference"]
 

@@ -21,9 +21,9 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from .checks import check_points
 from .errors import ParameterError
-from .geometry import cell_index
-from .io import check_points
+from .grid import cell_index
 
 __all__ = ["radius_outlier", "statistical_outlier", "FilterReport"]
 

@@ -20,10 +20,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-
-from .errors import ParameterError
 
 __all__ = [
     "bearing_to_vector",
@@ -37,22 +36,7 @@ __all__ = [
     "polygon_distance",
     "points_in_polygon",
     "crop_mask",
-    "cell_index",
 ]
-
-
-def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Plan grid cell ``(i, j)`` of each point, for cells of ``cell`` m from ``(x0, y0)``.
-
-    Column by column: several times faster than broadcasting over an (N, 2) block.
-
-    >>> i, j = cell_index(np.array([[0.5, 2.5, 0.0], [-0.5, 0.0, 0.0]]), 0.0, 0.0, 1.0)
-    >>> i.tolist(), j.tolist()
-    ([0, -1], [2, 0])
-    """
-    i = np.floor((points[:, 0] - x0) * (1.0 / cell)).astype(np.int64)
-    j = np.floor((points[:, 1] - y0) * (1.0 / cell)).astype(np.int64)
-    return i, j
 
 
 def bearing_to_vector(bearing_deg: float) -> np.ndarray:
@@ -217,14 +201,30 @@ def points_in_polygon(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     return inside
 
 
-def crop_mask(xyz: np.ndarray, crop: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
-    """Points inside a box ``(xmin, ymin, xmax, ymax)`` or a polygon ``(K, 2)``."""
-    arr = np.asarray(crop, np.float64)
-    if arr.shape == (4,):
-        xmin, ymin, xmax, ymax = arr
-        if not (xmax > xmin and ymax > ymin):
-            raise ParameterError(f"--crop: {arr.tolist()} is not xmin,ymin,xmax,ymax with min < max")
+def crop_mask(xyz: np.ndarray, crop: Any) -> np.ndarray:
+    """Points inside a box or a polygon.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (N, 2 or 3)
+        Points (m).
+    crop : (xmin, ymin, xmax, ymax) or sequence of (x, y) vertices (at least 3)
+        A flat sequence of 6 or more numbers is read as polygon vertices.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+
+    Examples
+    --------
+    >>> pts = np.array([[0.5, 0.5, 0.0], [2.0, 2.0, 0.0]])
+    >>> crop_mask(pts, (0, 0, 1, 1)).tolist(), crop_mask(pts, [(0, 0), (3, 0), (0, 3)]).tolist()
+    ([True, False], [True, False])
+    """
+    from .options import crop_value
+
+    value = crop_value("crop", crop)
+    if len(value) == 4 and not isinstance(value[0], tuple):
+        xmin, ymin, xmax, ymax = value
         return (xyz[:, 0] >= xmin) & (xyz[:, 0] <= xmax) & (xyz[:, 1] >= ymin) & (xyz[:, 1] <= ymax)
-    if arr.ndim == 2 and arr.shape[1] == 2 and len(arr) >= 3:
-        return points_in_polygon(xyz[:, :2], arr)
-    raise ParameterError(f"--crop: expected 4 numbers or a polygon of >= 3 vertices, got shape {arr.shape}")
+    return points_in_polygon(xyz[:, :2], np.asarray(value, np.float64))

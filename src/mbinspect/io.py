@@ -34,9 +34,7 @@ import io as _io
 import json
 import math
 import os
-import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -45,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from .errors import FileAccessError, InputError, NotEnoughPointsError, ParameterError
+from .outputs import atomic_path, dataclasses_asdict
 
 __all__ = [
     "PointCloud",
@@ -53,14 +52,8 @@ __all__ = [
     "write",
     "format_from_path",
     "parse_columns",
-    "atomic_path",
-    "check_points",
     "CloudSummary",
     "describe",
-    "to_jsonable",
-    "output_dir",
-    "write_json",
-    "write_table",
 ]
 
 #: Recognised formats and the extensions that select them.
@@ -70,6 +63,22 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "ply": (".ply",),
     "npz": (".npz",),
 }
+
+#: Other names a format may be given by (``--format laz`` reads LAZ through the LAS reader).
+FORMAT_ALIASES: dict[str, str] = {"laz": "las", "ascii": "xyz", "txt": "xyz", "csv": "xyz"}
+
+#: Every name ``format=`` accepts.
+FORMAT_NAMES: tuple[str, ...] = ("xyz", "las", "laz", "ply", "npz")
+
+#: ASCII delimiters ``delimiter=`` accepts, and the character each stands for (None: any run
+#: of whitespace).
+DELIMITERS: dict[str, str | None] = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "space": None,
+                                     " ": None, "whitespace": None}
+
+#: Raised through :mod:`warnings` for doubts about an input that do not stop the read.
+class InputWarning(UserWarning):
+    """A doubt about an input file that does not stop the read (the CLI prints one line)."""
+
 
 # Header names understood in ASCII files, mapped to the canonical field names.
 _ALIASES: dict[str, str] = {
@@ -155,38 +164,13 @@ class PointCloud:
         return self.xyz.min(axis=0), self.xyz.max(axis=0)
 
 
-def check_points(points: np.ndarray, *, minimum: int = 1, name: str = "points") -> np.ndarray:
-    """Return ``points`` as ``(N, 3)`` float64, checking shape, finiteness and count.
-
-    Raises
-    ------
-    ParameterError
-        Wrong shape or non-finite values.
-    NotEnoughPointsError
-        Fewer than ``minimum`` points.
-    """
-    pts = np.asarray(points, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise ParameterError(f"{name}: expected an (N, 3) array, got shape {pts.shape}")
-    if pts.shape[0] < minimum:
-        raise NotEnoughPointsError(
-            f"{name}: {pts.shape[0]} points, at least {minimum} needed"
-        )
-    # one sum is finite exactly when every value is (short of overflow, which the full
-    # test below then settles); it is three times cheaper than testing every value
-    if not math.isfinite(float(pts.sum())) and not np.isfinite(pts).all():
-        bad = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
-        raise ParameterError(f"{name}: point {bad} is not finite: {pts[bad].tolist()}")
-    return pts
-
-
 def format_from_path(path: str | os.PathLike[str], format: str | None = None) -> str:
     """The format name for ``path`` (or the explicit ``format``)."""
     if format is not None:
-        fmt = format.lower()
+        fmt = FORMAT_ALIASES.get(format.lower(), format.lower())
         if fmt not in FORMATS:
             raise ParameterError(
-                f"--format: unknown format {format!r}; expected one of {', '.join(FORMATS)}"
+                f"format: {format!r}; expected one of {', '.join(FORMAT_NAMES)}", option="format"
             )
         return fmt
     suffix = Path(path).suffix.lower()
@@ -218,11 +202,12 @@ def parse_columns(spec: str | Sequence[str]) -> list[str | None]:
     for axis in ("x", "y", "z"):
         if present.count(axis) != 1:
             raise ParameterError(
-                f"--columns {','.join(items)!r}: expected exactly one {axis!r} column"
+                f"columns: {','.join(items)!r}; expected exactly one {axis!r} column", option="columns"
             )
     dup = {c for c in present if present.count(c) > 1}
     if dup:
-        raise ParameterError(f"--columns: column {sorted(dup)[0]!r} named twice")
+        raise ParameterError(f"columns: {sorted(dup)[0]!r} named twice; expected each column once",
+                             option="columns")
     return out
 
 
@@ -243,7 +228,7 @@ def read(
     ----------
     path : path-like
         The file to read.
-    format : {"xyz", "las", "ply", "npz"}, optional
+    format : {"xyz", "las", "laz", "ply", "npz"}, optional
         Overrides the format inferred from the extension.
     columns : str or sequence of str, optional
         ASCII only: what each column holds, e.g. ``"x,y,z,intensity"`` or
@@ -252,7 +237,7 @@ def read(
     depth_positive : bool
         The file stores depth positive down: z is negated so that it is elevation.
         Never guessed; default False.
-    delimiter : str, optional
+    delimiter : {",", ";", "tab", "space"}, optional
         ASCII only: the column delimiter. Default: sniffed from the first data
         line (comma, semicolon, tab or whitespace).
 
@@ -273,13 +258,18 @@ def read(
     if p.is_dir():
         raise FileAccessError(f"{p}: is a directory, expected a point cloud file")
     fmt = format_from_path(p, format)
+    if delimiter is not None and delimiter.lower() not in DELIMITERS:
+        raise ParameterError(f"delimiter: {delimiter!r}; expected one of ',' ';' tab space",
+                             option="delimiter")
     if fmt != "xyz" and columns is not None:
-        raise ParameterError(f"--columns applies to ASCII files only, not to {fmt} ({p})")
+        raise ParameterError(f"columns: {columns!r} given for the {fmt} file {p}; expected it for "
+                             "ASCII files only", option="columns")
     try:
         if p.stat().st_size == 0:
             raise InputError(f"{p}: the file is empty")
         if fmt == "xyz":
-            cloud = _read_ascii(p, columns=columns, delimiter=delimiter)
+            cloud = _read_ascii(p, columns=columns, delimiter=delimiter,
+                                depth_positive=depth_positive)
         elif fmt == "las":
             cloud = _read_las(p)
         elif fmt == "ply":
@@ -329,7 +319,8 @@ def _is_number(token: str) -> bool:
 
 
 def _sniff_ascii(
-    path: Path, columns: str | Sequence[str] | None, delimiter: str | None
+    path: Path, columns: str | Sequence[str] | None, delimiter: str | None, *,
+    depth_positive: bool = False,
 ) -> _AsciiLayout:
     offset = 0
     lineno = 0
@@ -384,14 +375,14 @@ def _sniff_ascii(
                 f"{path}, header: no column for {', '.join(missing)} in {header}; "
                 "name them (x,y,z / easting,northing,depth) or pass --columns"
             )
-        if any(h.lower() in _DEPTH_NAMES for h in header):
+        if any(h.lower() in _DEPTH_NAMES for h in header) and not depth_positive:
             # the header says depth: still never flip silently, but say so once.
             import warnings
 
             warnings.warn(
-                f"{path}: the header names a depth column; z is read as given "
-                "(pass depth_positive=True / --depth-positive if it is positive down)",
-                stacklevel=3,
+                f"{path}: the header names a depth column; z is read as given, as elevation "
+                "(give depth_positive / --depth-positive if it is positive down)",
+                InputWarning, stacklevel=3,
             )
     elif ncols == 3:
         names = ["x", "y", "z"]
@@ -481,14 +472,46 @@ def _locate_ascii_error(path: Path, layout: _AsciiLayout) -> str:
     return f"{path}: could not be parsed as a {layout.ncols}-column point file"
 
 
+def _worker_init() -> None:
+    """A reader worker ignores Ctrl-C (the main process handles it and ends the workers)
+    and, on Linux, is killed when the main process dies, however it dies."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the main process still ends the workers
+        pass
+
+
+def _parse_parallel(chunks: list[tuple[str, int, int, str | None, int, bool]]
+                    ) -> list[np.ndarray | str]:
+    """Parse chunks in worker processes; on any error or interrupt the workers are killed
+    at once (no worker outlives the read, none prints a traceback)."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+    pool = ctx.Pool(len(chunks), initializer=_worker_init)
+    try:
+        results = pool.map(_parse_chunk, chunks, chunksize=1)
+        pool.close()
+        return results
+    finally:
+        pool.terminate()
+        pool.join()
+
+
 def _read_ascii(
-    path: Path, *, columns: str | Sequence[str] | None, delimiter: str | None
+    path: Path, *, columns: str | Sequence[str] | None, delimiter: str | None,
+    depth_positive: bool = False,
 ) -> PointCloud:
-    if delimiter is not None and delimiter.lower() in ("space", "whitespace", " "):
-        delimiter = None
-    elif delimiter is not None and delimiter.lower() == "tab":
-        delimiter = "\t"
-    layout = _sniff_ascii(path, columns, delimiter)
+    if delimiter is not None:
+        delimiter = DELIMITERS[delimiter.lower()]
+    layout = _sniff_ascii(path, columns, delimiter, depth_positive=depth_positive)
     size = path.stat().st_size
     cpus = os.cpu_count() or 1
     parts = min(cpus, 8) if size - layout.data_start > _PARALLEL_BYTES else 1
@@ -498,11 +521,7 @@ def _read_ascii(
     ]
     results: list[np.ndarray | str]
     if len(chunks) > 1:
-        import multiprocessing as mp
-
-        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
-        with ProcessPoolExecutor(len(chunks), mp_context=ctx) as pool:
-            results = list(pool.map(_parse_chunk, chunks))
+        results = _parse_parallel(chunks)
     else:
         results = [_parse_chunk(c) for c in chunks]
     if any(isinstance(r, str) for r in results):
@@ -669,28 +688,6 @@ def _read_npz(path: Path) -> PointCloud:
 # --------------------------------------------------------------------------- writing
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-@contextmanager
-def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; move it into place only on success."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    os.chmod(tmp, 0o666 & ~_umask())
-    try:
-        yield Path(tmp)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def write(
     cloud: PointCloud,
     path: str | os.PathLike[str],
@@ -704,7 +701,7 @@ def write(
     ----------
     cloud : PointCloud
     path : path-like
-    format : {"xyz", "las", "ply", "npz"}, optional
+    format : {"xyz", "las", "laz", "ply", "npz"}, optional
         Default from the extension (``.laz`` writes compressed LAS).
     precision : int
         Decimals for ASCII output and the LAS scale (3 = millimetres).
@@ -782,7 +779,6 @@ def _write_npz(cloud: PointCloud, path: Path, precision: int) -> None:
         np.savez_compressed(fh, **arrays)
 
 
-
 @dataclass(frozen=True)
 class CloudSummary:
     """What ``mbinspect info`` prints: counts, extent, fields and density.
@@ -819,33 +815,6 @@ class CloudSummary:
         return d
 
 
-def dataclasses_asdict(obj: Any) -> dict[str, Any]:
-    """``dataclasses.asdict`` with numpy scalars and arrays made JSON-ready."""
-    import dataclasses
-
-    return to_jsonable(dataclasses.asdict(obj))
-
-
-def to_jsonable(value: Any) -> Any:
-    """Convert numpy scalars/arrays (nested in dicts, lists, tuples) to plain Python."""
-    if isinstance(value, dict):
-        return {str(k): to_jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [to_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return to_jsonable(value.tolist())
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        f = float(value)
-        return f if math.isfinite(f) else None
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def describe(cloud: PointCloud, *, cell: float = 1.0, seed: int = 0) -> CloudSummary:
     """Summarise a cloud like ``pdal info`` or ``lasinfo`` do.
 
@@ -880,68 +849,3 @@ def describe(cloud: PointCloud, *, cell: float = 1.0, seed: int = 0) -> CloudSum
     )
 
 
-@contextmanager
-def output_dir(
-    path: str | os.PathLike[str], *, overwrite: bool = False,
-    inputs: Sequence[str | os.PathLike[str]] = (),
-) -> Iterator[Path]:
-    """Yield a fresh temporary folder that replaces ``path`` only when the block succeeds.
-
-    Refuses an existing, non-empty ``path`` unless ``overwrite``, and never replaces a
-    folder that holds one of ``inputs``.
-    """
-    import shutil
-
-    target = Path(path)
-    if target.exists() and not target.is_dir():
-        raise FileAccessError(f"--out {target}: exists and is not a folder")
-    if target.exists() and any(target.iterdir()):
-        if not overwrite:
-            raise FileAccessError(
-                f"--out {target}: the folder exists and is not empty; "
-                "pass --overwrite to replace it"
-            )
-        for inp in inputs:
-            if Path(target).resolve() in Path(inp).resolve().parents:
-                raise FileAccessError(
-                    f"--out {target}: holds the input {inp}; choose another output folder"
-                )
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    os.chmod(tmp, 0o777 & ~_umask())
-    try:
-        yield tmp
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    old = None
-    if target.exists():
-        old = target.with_name(f".{target.name}.old-{os.getpid()}")
-        os.replace(target, old)
-    os.replace(tmp, target)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
-
-
-def write_json(obj: Any, path: str | os.PathLike[str]) -> None:
-    """Write ``obj`` as indented JSON, atomically, with numpy values made plain."""
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(to_jsonable(obj), indent=2) + "\n", encoding="utf-8")
-
-
-def write_table(rows: Sequence[Mapping[str, Any]], path: str | os.PathLike[str],
-                columns: Sequence[str] | None = None) -> None:
-    """Write a list of flat dicts as CSV (atomically); lists and dicts are left out."""
-    import csv
-
-    cols = list(columns) if columns is not None else (
-        [k for k, v in rows[0].items() if not isinstance(v, (list, dict))] if rows else [])
-    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for row in rows:
-            vals = []
-            for c in cols:
-                v = to_jsonable(row.get(c))
-                vals.append("" if v is None else (f"{v:.4f}" if isinstance(v, float) else v))
-            w.writerow(vals)

@@ -44,8 +44,12 @@ from .designs import DesignFit, ReefDesign, fit_design, parse_designs
 from .errors import DataError, ParameterError
 from .evaluate import Evaluation, match_points
 from .filters import FilterReport, radius_outlier, statistical_outlier
-from .geometry import cell_index, convex_hull, crop_mask, min_area_rectangle, polygon_area
-from .io import PointCloud, check_points, to_jsonable
+from .geometry import convex_hull, crop_mask, min_area_rectangle, polygon_area
+from .grid import cell_index, grow
+from .grid import coverage as coverage_of
+from .checks import check_points
+from .io import PointCloud
+from .outputs import to_jsonable
 from .seabed import GridSurface, PlaneSeabed, grid_seabed, ransac_plane
 from .segment import components, kmeans
 
@@ -286,12 +290,6 @@ class _Raster:
     nearest: np.ndarray  # (ny, nx) int: index of the nearest sounding (-1 none)
 
 
-def _grow(mask: np.ndarray, r: int) -> np.ndarray:
-    """Dilation by a (2r+1)-cell square, as two 1-D passes."""
-    m = ndimage.maximum_filter1d(mask.view(np.uint8), 2 * r + 1, axis=0, mode="constant")
-    return ndimage.maximum_filter1d(m, 2 * r + 1, axis=1, mode="constant").view(bool)
-
-
 def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float, reach: float,
                           own: float, bridge: float, height: np.ndarray | None = None,
                           wall: float = 0.0) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -306,11 +304,11 @@ def _nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: floa
     ij = np.floor((rp - lo) / cell).astype(np.int64)
     occ[np.clip(ij[:, 1], 0, ny - 1), np.clip(ij[:, 0], 0, nx - 1)] = True
     r = max(1, int(math.ceil(reach / cell)))
-    occ = _grow(occ, r)
+    occ = grow(occ, r)
     cj, ci = np.nonzero(occ)
     centres = np.column_stack([lo[0] + (ci + 0.5) * cell, lo[1] + (cj + 0.5) * cell])
     # the soundings that can be nearest to a candidate cell lie within ``reach`` of one
-    wide = _grow(occ, r + 1)
+    wide = grow(occ, r + 1)
     pi, pj = cell_index(points, lo[0], lo[1], cell)
     idx = np.flatnonzero((pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny))
     idx = idx[wide[pj[idx], pi[idx]]]
@@ -872,15 +870,6 @@ class ReefResult:
         })
 
 
-def _coverage(points: np.ndarray, cell: float = 1.0) -> float:
-    """Share of the 1 m cells of the points' bounding box that hold a sounding."""
-    i, j = cell_index(points, float(points[:, 0].min()), float(points[:, 1].min()), cell)
-    nx, ny = int(i.max()) + 1, int(j.max()) + 1
-    seen = np.zeros(nx * ny, dtype=bool)
-    seen[i * ny + j] = True
-    return float(seen.sum() / max(len(seen), 1))
-
-
 def _with_design(reef: Reef, fit: DesignFit | None) -> Reef:
     """A reef's measures with its centre, area, rectangle and outline from a fitted design."""
     if fit is None:
@@ -1029,7 +1018,7 @@ def extract_reefs(
     report(0.25)
     region = None
     cand = pts[keep]
-    coverage = _coverage(cand) if len(cand) else 0.0
+    coverage = coverage_of(cand) if len(cand) else 0.0
     if coverage < 0.25:
         warnings.append(f"the soundings cover only {100 * coverage:.0f} % of their extent (1 m cells): "
                         "is there a seabed in this cloud, or only the objects on it?")

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .io import atomic_path
+from .outputs import atomic_path
 
 __all__ = ["html_table", "html_page", "save_figure", "plan_image", "pile_figures"]
 
@@ -65,9 +65,9 @@ def plan_image(points: np.ndarray, *, cell: float = 0.25, bounds: Sequence[float
     j = np.clip(((p[:, 1] - ymin) / cell).astype(np.int64), 0, ny - 1)
     from scipy import ndimage
 
-    from .seabed import _cell_percentile
+    from .grid import cell_percentile
 
-    img = _cell_percentile(j * nx + i, p[:, 2], 50.0, nx * ny).reshape(ny, nx)
+    img = cell_percentile(j * nx + i, p[:, 2], 50.0, nx * ny).reshape(ny, nx)
     empty = ~np.isfinite(img)
     if fill > 0 and empty.any() and not empty.all():
         # gaps between pings: take the nearest cell with data, up to ``fill`` m away
@@ -242,7 +242,7 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     Returns the names of the files written. ``truth`` (a simulator truth dict) adds the
     errors against truth to the report.
     """
-    from .io import write_json, write_table
+    from .outputs import write_json, write_table
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -282,7 +282,7 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
 def json_dumps(obj: Any) -> str:
     import json
 
-    from .io import to_jsonable
+    from .outputs import to_jsonable
 
     return json.dumps(to_jsonable(obj), indent=1)
 
@@ -384,7 +384,7 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     """Write ``reefs.json``, ``reefs.csv``, ``reefs.geojson``, figures and ``report.html``."""
     import json
 
-    from .io import to_jsonable, write_json, write_table
+    from .outputs import to_jsonable, write_json, write_table
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -26,10 +26,10 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from .checks import check_points
 from .errors import NotEnoughPointsError, ParameterError
 from .fit import Plane, msac, ransac_trials
-from .geometry import cell_index
-from .io import check_points
+from .grid import cell_index, sorted_cells, sorted_percentile
 
 __all__ = ["GridSurface", "grid_seabed", "PlaneSeabed", "ransac_plane"]
 
@@ -74,39 +74,13 @@ class GridSurface:
                 "z_min": float(self.z.min()), "z_max": float(self.z.max())}
 
 
-def _sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(key, z)`` sorted by cell, then by z, with z to the millimetre.
-
-    Both are packed into one integer and sorted by value (much faster than an argsort).
-    """
-    z0 = float(z.min())
-    zq = np.round((z - z0) * 1000.0).astype(np.int64)
-    span = int(zq.max()) + 1
-    packed = np.sort(key * span + zq)
-    ks, zq = np.divmod(packed, span)
-    return ks, z0 + zq / 1000.0
-
-
-def _sorted_percentile(ks: np.ndarray, zs: np.ndarray, q: float, size: int) -> np.ndarray:
-    """Per-cell ``q`` percentile of z for arrays already sorted by (cell, z); NaN if empty."""
-    out = np.full(size, np.nan)
-    if len(ks) == 0:
-        return out
-    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-    counts = np.diff(np.r_[starts, len(ks)])
-    out[ks[starts]] = zs[starts + np.floor(q / 100.0 * (counts - 1)).astype(np.int64)]
-    return out
-
-
-def _cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.ndarray:
-    """Per-cell ``q`` percentile of z (cells numbered 0..size-1); NaN where a cell is empty."""
-    if len(key) == 0:
-        return np.full(size, np.nan)
-    return _sorted_percentile(*_sorted_cells(key, z), q, size)
+#: Soundings within this height (m) of a seabed surface are ground: the band in which a
+#: seabed's residual is measured, ring soundings are taken and a pile's foot is judged.
+GROUND_BAND = 0.3
 
 
 def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
-                percentile: float = 10.0, ground_band: float = 0.3,
+                percentile: float = 10.0, ground_band: float = GROUND_BAND,
                 low_cut: float = 1.0) -> GridSurface:
     """A robust local seabed surface that ignores structures narrower than ``window``.
 
@@ -144,10 +118,10 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     key = ci * ny + cj
     # multipath spikes lie metres below the seabed: in a sparse cell the low percentile
     # would pick one, so only points at most ``low_cut`` below the cell median count
-    ks, zs = _sorted_cells(key, pts[:, 2])
-    median = _sorted_percentile(ks, zs, 50.0, nx * ny)
+    ks, zs = sorted_cells(key, pts[:, 2])
+    median = sorted_percentile(ks, zs, 50.0, nx * ny)
     sane = zs >= median[ks] - low_cut
-    grid = _sorted_percentile(ks[sane], zs[sane], percentile, nx * ny).reshape(nx, ny)
+    grid = sorted_percentile(ks[sane], zs[sane], percentile, nx * ny).reshape(nx, ny)
     observed = np.isfinite(grid)
     filled = _fill_nearest(grid)
     filled = ndimage.median_filter(filled, size=3, mode="nearest")
@@ -158,7 +132,7 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     # (the opened surface at each sounding's own cell: bilinear is not needed for a band,
     # and the soundings stay sorted by cell and z)
     ground = np.abs(zs - opened.ravel()[ks]) <= ground_band
-    med = _sorted_percentile(ks[ground], zs[ground], 50.0, nx * ny).reshape(nx, ny)
+    med = sorted_percentile(ks[ground], zs[ground], 50.0, nx * ny).reshape(nx, ny)
     # cells without ground (under a structure) take a Gaussian-weighted mean of the ground
     # cells around them (normalized convolution), not the opened surface, which sits low
     # on slopes and sand-wave flanks; far from any ground the opened surface stays

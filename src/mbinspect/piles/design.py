@@ -1,0 +1,226 @@
+"""Pile designs: the positions or spacings a jacket was built to, read from CSV and matched.
+
+A design gives pile positions (``id,x,y``) or pile-pair spacings (``a,b,distance``);
+:func:`match_design` gives each measured pile its design id (one-to-one nearest matching).
+
+Examples
+--------
+>>> d = Design(positions={1: (0.0, 0.0), 2: (22.0, 0.0)})
+>>> d.spacing(1, 2)
+22.0
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileAccessError, InputError
+from .results import PileFit
+
+__all__ = ["Design", "read_design", "match_design", "apply_design"]
+
+
+@dataclass(frozen=True)
+class Design:
+    """A design: pile positions (id -> x, y) or pile-pair spacings ((a, b) -> distance)."""
+
+    positions: dict[int, tuple[float, float]] = field(default_factory=dict)
+    spacings: dict[tuple[int, int], float] = field(default_factory=dict)
+    source: str | None = None
+
+    def spacing(self, a: int, b: int) -> float | None:
+        """The design distance between piles ``a`` and ``b`` (m), or None if not designed."""
+        if self.positions:
+            if a in self.positions and b in self.positions:
+                (xa, ya), (xb, yb) = self.positions[a], self.positions[b]
+                return math.hypot(xa - xb, ya - yb)
+            return None
+        return self.spacings.get((min(a, b), max(a, b)))
+
+
+def read_design(path: str | Path) -> Design:
+    """Read a design CSV: ``id,x,y`` (positions, m) or ``a,b,distance`` (spacings, m).
+
+    A header row is required; ``#`` lines and blank lines are skipped.
+
+    Parameters
+    ----------
+    path : path-like
+        The design file.
+
+    Returns
+    -------
+    Design
+
+    Raises
+    ------
+    FileAccessError
+        No such file, or a folder.
+    InputError
+        A bad row; the message names the line and column.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "design.csv"
+    >>> _ = f.write_text("id,x,y\\n1,0,0\\n2,22,0\\n")
+    >>> read_design(f).spacing(1, 2)
+    22.0
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileAccessError(f"{p}: no such file")
+    if p.is_dir():
+        raise FileAccessError(f"{p}: is a directory, expected a design CSV")
+    rows: list[tuple[int, list[str]]] = []
+    with open(p, newline="", encoding="utf-8") as fh:
+        for lineno, row in enumerate(csv.reader(fh), start=1):
+            cells = [c.strip() for c in row]
+            if not any(cells) or cells[0].startswith("#"):
+                continue
+            rows.append((lineno, cells))
+    if not rows:
+        raise InputError(f"{p}: the design file is empty")
+    header = [h.lower() for h in rows[0][1]]
+    body = rows[1:]
+    if not body:
+        raise InputError(f"{p}: the design file has a header but no rows")
+    if {"id", "x", "y"} <= set(header):
+        cols = [header.index(c) for c in ("id", "x", "y")]
+        positions: dict[int, tuple[float, float]] = {}
+        for lineno, cells in body:
+            v = _design_row(p, lineno, cells, cols, header, n_ids=1)
+            pid, x, y = int(v[0]), v[1], v[2]
+            if pid in positions:
+                raise InputError(f"{p}, line {lineno}: pile id {pid} appears twice")
+            positions[pid] = (x, y)
+        return Design(positions=positions, source=str(p))
+    if {"a", "b", "distance"} <= set(header):
+        cols = [header.index(c) for c in ("a", "b", "distance")]
+        spacings: dict[tuple[int, int], float] = {}
+        for lineno, cells in body:
+            v = _design_row(p, lineno, cells, cols, header, n_ids=2)
+            a, b, d = int(v[0]), int(v[1]), v[2]
+            if a == b:
+                raise InputError(f"{p}, line {lineno}: a spacing from pile {a} to itself")
+            if not d > 0:
+                raise InputError(f"{p}, line {lineno}: distance {d} must be positive")
+            spacings[(min(a, b), max(a, b))] = float(d)
+        return Design(spacings=spacings, source=str(p))
+    raise InputError(
+        f"{p}, line {rows[0][0]}: header {rows[0][1]} has neither id,x,y nor a,b,distance"
+    )
+
+
+def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header: list[str],
+                *, n_ids: int) -> list[float]:
+    """The numbers of one design row; the first ``n_ids`` must be whole (pile ids)."""
+    if len(cells) < len(header):
+        raise InputError(f"{p}, line {lineno}: {len(cells)} values, expected {len(header)}")
+    out: list[float] = []
+    for k, c in enumerate(cols):
+        text = cells[c]
+        try:
+            v = float(text)
+        except ValueError:
+            raise InputError(
+                f"{p}, line {lineno}, column {c + 1} ({header[c]}): {text!r} is not a number"
+            ) from None
+        if not math.isfinite(v):
+            raise InputError(f"{p}, line {lineno}, column {c + 1}: {text!r} is not finite")
+        if k < n_ids and v != int(v):
+            raise InputError(
+                f"{p}, line {lineno}, column {c + 1} ({header[c]}): pile id {text!r} "
+                "is not a whole number"
+            )
+        out.append(v)
+    return out
+
+
+def match_design(piles: tuple[PileFit, ...], design: Design) -> tuple[tuple[PileFit, ...], list[str]]:
+    """Give each pile its design id by one-to-one nearest matching (Hungarian).
+
+    A pile more than 2 m from its design position is flagged; a design pile with no
+    measured pile, and a measured pile with no design pile, are reported.
+
+    Parameters
+    ----------
+    piles : tuple of PileFit
+        The measured piles, in their measured order.
+    design : Design
+        A design of positions.
+
+    Returns
+    -------
+    piles : tuple of PileFit
+        The same piles, in the same order, with design ids (new ids above the design's for
+        piles not in it).
+    warnings : list of str
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    ids = sorted(design.positions)
+    D = np.array([[math.hypot(p.x - design.positions[i][0], p.y - design.positions[i][1])
+                   for i in ids] for p in piles])
+    rows, cols = linear_sum_assignment(D)
+    warnings = []
+    new: dict[int, PileFit] = {}
+    for r, c in zip(rows, cols, strict=True):
+        p = piles[r]
+        flags = p.flags
+        if D[r, c] > 2.0:
+            flags = flags + (f"{D[r, c]:.2f} m from design pile {ids[c]}",)
+            warnings.append(f"pile {p.id} is {D[r, c]:.2f} m from its nearest design pile "
+                            f"{ids[c]}: is the design in the same coordinate frame?")
+        new[r] = replace(p, id=ids[c], flags=flags)
+    unmatched_design = sorted(set(ids) - {ids[c] for c in cols})
+    for i in unmatched_design:
+        warnings.append(f"design pile {i} was not found in the data")
+    next_id = max(ids) + 1
+    out = []
+    for r, p in enumerate(piles):
+        if r in new:
+            out.append(new[r])
+        else:
+            out.append(replace(p, id=next_id, flags=p.flags + ("not in the design",)))
+            next_id += 1
+    return tuple(out), warnings
+
+
+def apply_design(piles: tuple[PileFit, ...], design: Design | None
+                 ) -> tuple[tuple[PileFit, ...], dict[int, int], list[str]]:
+    """The piles with the design's ids, the id map, and what does not fit the design.
+
+    A design of positions renumbers the piles (:func:`match_design`); a design of
+    spacings that names a pile id not found is reported.
+
+    Parameters
+    ----------
+    piles : tuple of PileFit
+    design : Design or None
+
+    Returns
+    -------
+    piles : tuple of PileFit
+    remap : dict
+        Measured id -> reported id.
+    warnings : list of str
+    """
+    warnings: list[str] = []
+    remap = {p.id: p.id for p in piles}
+    if design is not None and design.positions:
+        matched, warnings = match_design(piles, design)
+        remap = {old.id: new.id for old, new in zip(piles, matched, strict=True)}
+        piles = matched
+    if design is not None and design.spacings:
+        known = {p.id for p in piles}
+        missing = sorted({i for ab in design.spacings for i in ab} - known)
+        if missing:
+            warnings.append(f"design {design.source}: pile id {missing[0]} does not exist "
+                            f"(piles found: {', '.join(map(str, sorted(known)))})")
+    return piles, remap, warnings

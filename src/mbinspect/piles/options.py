@@ -1,0 +1,89 @@
+"""Every option of the pile pipeline, with its unit, default and check, declared once."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..checks import fail
+from ..options import CHOICES, Options, crop_value, option, parse_crop
+
+__all__ = ["PileOptions", "METHODS"]
+
+#: Centre methods: the paper's two and both side by side.
+METHODS = CHOICES["pile_method"]
+
+
+def _coverage_deg(name: str, value: Any) -> float:
+    from ..checks import within
+
+    return within(name, value, 0.0, 360.0, unit="deg")
+
+
+@dataclass(frozen=True)
+class PileOptions(Options):
+    """Options of :func:`~mbinspect.piles.locate_piles`; each is checked on creation.
+
+    The table of every option (unit, default, meaning) is ``PileOptions.describe()``;
+    ``mbinspect piles --help`` lists the same under their flags.
+
+    Examples
+    --------
+    >>> PileOptions(radius=0.75, count=4).method
+    'intersection'
+    >>> PileOptions(radius=0.75, max_iterations=0)
+    Traceback (most recent call last):
+    ...
+    mbinspect.errors.ParameterError: max_iterations: 0; expected a whole number >= 1
+    """
+
+    radius: float = option(unit="m", help="prior pile radius r", check="positive", metavar="R")
+    count: int | None = option(None, help="number of piles K (K-means); found from the data if none",
+                               check="count", kind=int, metavar="K")
+    method: str = option("intersection", help="top-centre method", choices="pile_method")
+    tolerance: float = option(0.05, unit="m", help="pass/fail tolerance on spacing deviations",
+                              check="positive")
+    crop: tuple[Any, ...] | None = option(
+        None, unit="m", help="keep only this box (xmin,ymin,xmax,ymax) or polygon (x1,y1,x2,y2,...)",
+        check=crop_value, kind=tuple, metavar="XMIN,YMIN,XMAX,YMAX", parse=parse_crop)
+    min_height: float = option(1.0, unit="m", help="pile points stand this far above the local seabed",
+                               check="positive")
+    seabed_cell: float = option(1.0, unit="m", help="local seabed grid cell", check="positive")
+    seabed_window: float | None = option(None, unit="m", help="seabed opening window (none: max(5, 4 r + 1))",
+                                         check="positive", kind=float)
+    window: float = option(0.1, unit="m", help="the paper's top elevation window", check="positive")
+    step: float = option(0.01, unit="m", help="the window's step", check="positive")
+    ks: float = option(0.1, unit="m", help="the paper's k_s: centre method radius r + k_s",
+                       check="non_negative")
+    threshold: float = option(0.06, unit="m", help="inlier distance of the cylinder and plane fits",
+                              check="positive")
+    use_intensity: bool = option(True, help="drop points darker than an Otsu backscatter threshold",
+                                 check="bool", flag="intensity")
+    segmentation: str = option("joint", help="window + normals + backscatter (joint) or the window "
+                               "alone (paper)", choices="segmentation")
+    radius_mode: str = option("auto", help="keep the prior radius (fixed, the paper), fit it (free), or "
+                              "fit it where the side coverage supports it (auto)", choices="radius_mode")
+    delta: float = option(0.01, unit="m", help="stop when every spacing changes by less than this",
+                          check="positive")
+    max_iterations: int = option(20, help="most iterations", check="count", metavar="N")
+    max_tilt_deg: float = option(15.0, unit="deg", help="largest tilt a cylinder hypothesis may have",
+                                 check="angle", flag="max-tilt")
+    min_top: int = option(20, help="flag a pile with fewer top points", check="whole", metavar="N")
+    min_side: int = option(50, help="flag a pile with fewer side points", check="whole", metavar="N")
+    min_coverage_deg: float = option(60.0, unit="deg", help="flag a pile whose side is scanned over a "
+                                     "narrower arc", check=_coverage_deg, flag="min-coverage")
+    max_sigma: float = option(0.005, unit="m", help="flag a pile whose plan 1-sigma exceeds this",
+                              check="positive")
+    seed: int = option(0, help="random seed", check="seed")
+
+    def check_together(self) -> None:
+        if self.step > self.window:
+            raise fail("step", self.step, f"at most the window ({self.window} m)")
+
+    @property
+    def opening_window(self) -> float:
+        """The seabed opening window used (m): given, or max(5, 4 r + 1)."""
+        return self.seabed_window if self.seabed_window is not None else max(5.0, 4 * self.radius + 1)
+
+    def value_for_json(self, name: str) -> Any:
+        return self.opening_window if name == "seabed_window" else getattr(self, name)

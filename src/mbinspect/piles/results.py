@@ -1,0 +1,210 @@
+"""What the pile pipeline returns: one record per pile, spacings, and the whole result.
+
+:class:`PileMeasure` is one pile's measurement within an iteration (what a stage hands to
+the next); :class:`PileFit` is a pile as reported, with its flags; :class:`PileResult`
+holds everything, and its ``to_dict()`` is ``piles.json``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..fit import Cylinder, Plane
+from ..outputs import to_jsonable
+from ..seabed import GridSurface
+
+__all__ = ["PileSegment", "PileMeasure", "PileFit", "Spacing", "PileResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class PileSegment:
+    """The points of one pile: all, top face and side (arrays, not serialised)."""
+
+    points: np.ndarray
+    top: np.ndarray
+    side: np.ndarray
+    ping: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PileMeasure:
+    """One pile measured in one iteration: its top centre by the method used and how well.
+
+    Attributes
+    ----------
+    x, y, z : float
+        Top centre (m).
+    method : {"intersection", "centre"}
+        The method that gave the centre.
+    cov : ndarray, shape (2, 2)
+        Covariance of the plan centre (m²), cluster-robust by ping where pings are known.
+    sigma_xy : float
+        Plan 1-sigma (m): the root of the mean of the covariance's diagonal.
+    rms : float
+        RMS residual of the points used (m).
+    n_top, n_side : int
+        Top and side points used.
+    coverage : float
+        Arc of the side scanned (deg; 0 for the centre method).
+    top_coverage : float or None
+        Share of the top disc's cells holding a point (centre method).
+    tilt_deg, tilt_azimuth_deg : float or None
+        Axis tilt from vertical and its bearing (intersection method).
+    cylinder, plane : Cylinder or None, Plane or None
+        The fitted models (intersection method).
+    radius_fitted : float or None
+        The radius the side points show when fitted freely (m).
+    radius_used : float or None
+        The radius of the cylinder used (m).
+    flags : tuple of str
+        Doubts met while measuring.
+    alternatives : dict
+        With both methods, each method's centre (``x, y, z, sigma_xy`` and, for the
+        centre method, ``cov`` and ``top_coverage``).
+    """
+
+    x: float
+    y: float
+    z: float
+    method: str
+    cov: np.ndarray
+    sigma_xy: float
+    rms: float
+    n_top: int
+    n_side: int
+    coverage: float = 0.0
+    top_coverage: float | None = None
+    tilt_deg: float | None = None
+    tilt_azimuth_deg: float | None = None
+    cylinder: Cylinder | None = None
+    plane: Plane | None = None
+    radius_fitted: float | None = None
+    radius_used: float | None = None
+    flags: tuple[str, ...] = ()
+    alternatives: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The top centre as an array (3,)."""
+        return np.array([self.x, self.y, self.z])
+
+
+@dataclass(frozen=True)
+class PileFit:
+    """One pile: top centre (x, y, z), radius, tilt, quality and the reasons for doubt.
+
+    ``x, y, z`` are the top centre by ``method``. With both methods the other method's
+    centre is in ``alternatives``.
+    """
+
+    id: int
+    x: float
+    y: float
+    z: float
+    radius: float
+    tilt_deg: float | None
+    tilt_azimuth_deg: float | None
+    method: str
+    n_top: int
+    n_side: int
+    side_coverage_deg: float
+    rms: float
+    sigma_xy: float
+    flags: tuple[str, ...] = ()
+    radius_fitted: float | None = None
+    top_coverage: float | None = None
+    alternatives: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """One row of ``piles.json``; the other method's centre under ``methods``."""
+        d: dict[str, Any] = {
+            "id": self.id, "x": self.x, "y": self.y, "z": self.z, "radius": self.radius,
+            "tilt_deg": self.tilt_deg, "tilt_azimuth_deg": self.tilt_azimuth_deg,
+            "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
+            "side_coverage_deg": self.side_coverage_deg, "rms": self.rms,
+            "sigma_xy": self.sigma_xy, "flags": list(self.flags),
+            "radius_fitted": self.radius_fitted, "top_coverage": self.top_coverage,
+        }
+        if self.alternatives:
+            d["methods"] = self.alternatives
+        return to_jsonable(d)
+
+
+@dataclass(frozen=True)
+class Spacing:
+    """The horizontal distance between two pile top centres, its 1-sigma and the design."""
+
+    a: int
+    b: int
+    distance: float
+    sigma: float
+    design: float | None = None
+    deviation: float | None = None
+    passed: bool | None = None
+    method: str = "intersection"
+
+    def to_dict(self) -> dict[str, Any]:
+        """One row of ``spacings`` in ``piles.json`` (``pass``: within the tolerance)."""
+        return to_jsonable({"a": self.a, "b": self.b, "distance": self.distance,
+                            "sigma": self.sigma, "design": self.design,
+                            "deviation": self.deviation, "pass": self.passed,
+                            "method": self.method})
+
+
+@dataclass(frozen=True, eq=False)
+class PileResult:
+    """Everything :func:`~mbinspect.piles.locate_piles` measured; ``to_dict()`` is ``piles.json``.
+
+    Attributes
+    ----------
+    piles : tuple of PileFit
+        By the chosen method (the intersection method's with ``method="both"``).
+    spacings : tuple of Spacing
+        Every pair of ``piles``.
+    iterations : tuple of dict
+        Centres and spacings after each iteration (the paper's convergence).
+    parameters : dict
+        The options (``PileOptions.to_dict()``), the design's source, the input and the
+        software version; the command line adds the input file's size and sha256 and the
+        command.
+    warnings : tuple of str
+    segments, seabed, cylinders
+        The points, seabed and models behind the answer (for figures; not serialised).
+    other_spacings, other_piles
+        With ``method="both"``: the centre method's spacings and piles.
+    segmentation : dict
+        Per pile, how the top/side split went, and the backscatter threshold used.
+    """
+
+    piles: tuple[PileFit, ...]
+    spacings: tuple[Spacing, ...]
+    iterations: tuple[dict[str, Any], ...]
+    parameters: dict[str, Any]
+    warnings: tuple[str, ...] = ()
+    segments: dict[int, PileSegment] = field(default_factory=dict, repr=False)
+    seabed: GridSurface | None = field(default=None, repr=False)
+    cylinders: dict[int, Cylinder] = field(default_factory=dict, repr=False)
+    other_spacings: tuple[Spacing, ...] = ()
+    other_piles: tuple[PileFit, ...] = ()
+    segmentation: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result as JSON-ready dicts and lists (``piles.json``)."""
+        return {
+            "piles": [p.to_dict() for p in self.piles],
+            "other_piles": [p.to_dict() for p in self.other_piles],
+            "spacings": [s.to_dict() for s in self.spacings + self.other_spacings],
+            "iterations": to_jsonable(list(self.iterations)),
+            "parameters": to_jsonable(self.parameters),
+            "segmentation": to_jsonable(self.segmentation),
+            "warnings": list(self.warnings),
+            "seabed": self.seabed.to_dict() if self.seabed is not None else None,
+        }
+
+    @property
+    def ok(self) -> bool:
+        """True when no pile is flagged and there is no warning."""
+        return not self.warnings and not any(p.flags for p in self.piles)

@@ -1,0 +1,116 @@
+"""The pile pipeline as its list of stages: :func:`locate_piles`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..checks import check_points
+from ..errors import DataError
+from ..geometry import crop_mask
+from ..io import PointCloud
+from ..seabed import GROUND_BAND
+from .assess import assess_pile, other_method_piles
+from .design import Design, apply_design
+from .elevate import elevated_points, intensity_threshold
+from .iterate import iterate
+from .options import PileOptions
+from .results import PileResult
+from .separate import separate_piles
+from .space import spacings
+from .split import segment_piles
+
+__all__ = ["locate_piles"]
+
+
+def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = None, *,
+                 design: Design | None = None, progress: Callable[[float], None] | None = None,
+                 **overrides: Any) -> PileResult:
+    """Locate piles, their top centres, radii and tilts, and every spacing.
+
+    Stages: the points above a robust local seabed (:func:`elevated_points`), separated
+    into piles (:func:`separate_piles`), each split into top and side
+    (:func:`segment_piles`), measured by the centre or intersection method until the
+    spacings settle (:func:`iterate`), judged (:func:`assess_pile`), matched to the design
+    (:func:`apply_design`), and every spacing with its 1-sigma (:func:`spacings`).
+
+    Parameters
+    ----------
+    data : PointCloud or ndarray, shape (N, 3)
+        Soundings (m, z up); a cloud's ``intensity`` and ``ping`` fields are used.
+    options : PileOptions, optional
+        Every option (:class:`PileOptions`); ``radius`` is required.
+    design : Design, optional
+        Design positions or spacings for deviations and pass/fail.
+    progress : callable, optional
+        Called with the fraction done (0 to 1).
+    **overrides
+        Options by name, over ``options`` (``locate_piles(cloud, radius=0.75, count=4)``).
+
+    Returns
+    -------
+    PileResult
+
+    Raises
+    ------
+    ParameterError
+        A bad option, named by its library name.
+    DataError
+        No point stands above the seabed, or no pile is found.
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("jacket", seed=2, ping_spacing=0.25)
+    >>> result = locate_piles(sim.cloud, count=4, radius=0.75)
+    >>> len(result.piles), len(result.spacings)
+    (4, 6)
+    >>> 21.8 < result.spacings[0].distance < 22.2
+    True
+    """
+    opts = PileOptions(**overrides) if options is None else options.replace(**overrides)
+    cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
+    if opts.crop is not None:
+        cloud = cloud.subset(crop_mask(cloud.xyz, opts.crop))
+    pts = check_points(cloud.xyz, minimum=10, name="points")
+    intensity = cloud.fields.get("intensity") if opts.use_intensity else None
+    ping = cloud.fields.get("ping")
+    report = progress or (lambda f: None)
+    elevated, seabed, height = elevated_points(pts, min_height=opts.min_height, seabed_cell=opts.seabed_cell,
+                                               seabed_window=opts.opening_window)
+    report(0.2)
+    if not elevated.any():
+        raise DataError(f"no points stand more than {opts.min_height} m above the seabed; no pile to "
+                        "measure (check the min_height option and the crop)")
+    eidx = np.flatnonzero(elevated)
+    labels, warnings = separate_piles(pts[eidx], count=opts.count, radius=opts.radius, seed=opts.seed)
+    if not (labels >= 0).any():
+        raise DataError("no pile found among the points above the seabed")
+    report(0.3)
+    thr = intensity_threshold(intensity, elevated, np.abs(height) < GROUND_BAND) \
+        if intensity is not None else None
+    segs, side_n, seg_info = segment_piles(
+        pts[eidx], labels, opts, intensity=None if intensity is None else intensity[eidx],
+        intensity_threshold=thr, ping=None if ping is None else ping[eidx])
+    fits, iterations = iterate(segs, side_n, opts, report)
+    piles = tuple(assess_pile(pid, fits[pid], opts) for pid in sorted(fits))
+    piles, remap, warn = apply_design(piles, design)
+    covs = {remap[k]: fits[k].cov for k in fits}
+    pairs = spacings(piles, covs, design, opts.tolerance,
+                     method="centre" if opts.method == "centre" else "intersection")
+    others, other_pairs = (), ()
+    if opts.method == "both":
+        others, alt_covs, piles = other_method_piles(piles, opts.radius)
+        other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre")
+    report(1.0)
+    parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
+                  "input": {"source": cloud.source, "n_points": len(pts)},
+                  "software": f"mbinspect {__version__}"}
+    return PileResult(piles, pairs, tuple(iterations), parameters, tuple(warnings + warn),
+                      {remap[k]: v for k, v in segs.items()}, seabed,
+                      {remap[k]: f.cylinder for k, f in fits.items() if f.cylinder is not None},
+                      other_pairs, others,
+                      {"intensity_threshold": thr, "piles": {str(remap[k]): v for k, v in seg_info.items()}})
