@@ -53,7 +53,38 @@ __all__ = [
     "parse_designs",
     "read_design",
     "fit_design",
+    "SCALE_BOUNDS",
+    "scale_at_bound",
 ]
+
+#: The as-built size factor a design fit may take (smallest, largest).
+SCALE_BOUNDS: tuple[float, float] = (0.6, 1.6)
+
+#: A fitted size factor within this ratio of a bound is taken as held by it: the soundings
+#: wanted a size outside the range, so the fit explains another kind of object.
+BOUND_MARGIN = 1.03
+
+
+def scale_at_bound(scale: float, bounds: tuple[float, float] = SCALE_BOUNDS) -> bool:
+    """Whether a fitted size factor sits at (within 3 % of) a bound of the fit.
+
+    Parameters
+    ----------
+    scale : float
+        The fitted as-built size factor.
+    bounds : (float, float)
+        The fit's bounds.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> scale_at_bound(1.0), scale_at_bound(0.61), scale_at_bound(1.58)
+    (False, True, True)
+    """
+    return not bounds[0] * BOUND_MARGIN < scale < bounds[1] / BOUND_MARGIN
 
 
 @dataclass(frozen=True)
@@ -265,8 +296,8 @@ def parse_designs(spec: str | Sequence[str | ReefDesign] | None) -> tuple[ReefDe
         elif s.lower().endswith(".json"):
             out.append(read_design(s))
         else:
-            raise ParameterError(f"--design: {s!r} is neither a built-in design "
-                                 f"({', '.join(BUILTIN_DESIGNS)}) nor a .json design file")
+            raise ParameterError(f"design: {s!r}; expected a built-in design "
+                                 f"({', '.join(BUILTIN_DESIGNS)}) or a .json design file", option="design")
     return tuple(out)
 
 
@@ -368,7 +399,7 @@ def _roles(design: ReefDesign, inside: np.ndarray, height: np.ndarray | None, ba
 def fit_design(xy: np.ndarray, inside: np.ndarray, outside: np.ndarray, design: ReefDesign, *,
                x0: float, y0: float, height: np.ndarray | None = None, sigma: float = 0.03,
                cap: float = 0.12, band: float = 0.25, size_prior: float = 0.1,
-               scale_range: tuple[float, float] = (0.6, 1.6)) -> DesignFit:
+               scale_range: tuple[float, float] = SCALE_BOUNDS) -> DesignFit:
     """Fit a design's pose (x, y, bearing) and size factor to the soundings around a reef.
 
     Costs, each ``(distance / sigma)²`` up to ``(cap / sigma)²``: a reef sounding outside

@@ -1,0 +1,84 @@
+"""Stage 2 and 4: the paper's radius filter on every sounding, and the reef points (high
+above the seabed, with their feet) cleaned by a statistical filter."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..checks import fail, positive
+from ..filters import FilterReport, radius_outlier, statistical_outlier
+from .ground import Seabed
+
+__all__ = ["denoise", "reef_points", "clean_reef_points"]
+
+
+def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
+            ) -> tuple[np.ndarray, FilterReport]:
+    """The paper's radius filter: noise if ``<= min_neighbors`` neighbours within ``radius`` m."""
+    keep = radius_outlier(points, radius=radius, min_neighbors=min_neighbors)
+    return keep, FilterReport("radius", len(keep), int((~keep).sum()),
+                              {"radius": radius, "min_neighbors": min_neighbors})
+
+
+def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
+                foot_height: float = 0.15, link: float = 0.5, height: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Reef points: above ``min_height`` m over the seabed, plus connected lower parts.
+
+    A point between ``foot_height`` and ``min_height`` belongs to a reef when it lies
+    within ``link`` m (plan) of a core point (hysteresis): the reef's feet are kept, a
+    lone seabed bump is not. ``height`` may give the heights above ``seabed`` when the
+    caller already has them.
+
+    Returns
+    -------
+    mask : ndarray of bool, shape (N,)
+    height : ndarray, shape (N,)
+        Height of every point above the seabed.
+    """
+    pts = np.asarray(points, np.float64)
+    positive("min_height", min_height)
+    positive("foot_height", foot_height)
+    if foot_height > min_height:
+        raise fail("foot_height", foot_height, f"at most min_height ({min_height} m)")
+    h = seabed.height_above(pts) if height is None else np.asarray(height, np.float64)
+    core = h > min_height
+    low = (h > foot_height) & ~core
+    mask = core.copy()
+    if core.any() and low.any():
+        tree = cKDTree(pts[core, :2], balanced_tree=False, compact_nodes=False)
+        d, _ = tree.query(pts[low, :2], k=1, distance_upper_bound=link)
+        idx = np.flatnonzero(low)
+        mask[idx[np.isfinite(d)]] = True
+    return mask, h
+
+
+def clean_reef_points(points: np.ndarray, is_reef: np.ndarray, *, k: int, std_ratio: float
+                      ) -> tuple[np.ndarray, FilterReport | None]:
+    """The reef points without the statistical filter's outliers (``k`` 0: unchanged).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    is_reef : ndarray of bool, shape (N,)
+    k : int
+        Neighbours of the statistical filter; 0 switches it off.
+    std_ratio : float
+        Points whose mean neighbour distance exceeds the mean by this many standard
+        deviations are outliers.
+
+    Returns
+    -------
+    is_reef : ndarray of bool
+        A new mask.
+    report : FilterReport or None
+        What the filter removed; None when it did not run.
+    """
+    is_reef = is_reef.copy()
+    if k <= 0 or is_reef.sum() <= k:
+        return is_reef, None
+    idx = np.flatnonzero(is_reef)
+    ok = statistical_outlier(points[idx], k=k, std_ratio=std_ratio)
+    is_reef[idx[~ok]] = False
+    return is_reef, FilterReport("statistical", len(idx), int((~ok).sum()), {"k": k, "std_ratio": std_ratio})

@@ -1,0 +1,160 @@
+"""Stage 6b (given the deployed designs): each reef fitted by the design that explains its
+soundings, touching reefs sharing their soundings by design, fragments one design explains
+joined."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..designs import DesignFit, ReefDesign, fit_design, scale_at_bound
+from ..geometry import min_area_rectangle
+from .footprint import Raster
+from .measure import own_soundings, soundings_around
+from .results import Reef
+
+__all__ = ["fit_reef_design", "join_by_design", "share_by_design", "with_design"]
+
+
+def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_reef: np.ndarray,
+                    height: np.ndarray, designs: Sequence[ReefDesign], *, margin: int = 8,
+                    ground: float = 0.15, max_misfit: float = 0.2, reef_height: float | None = None,
+                    own: np.ndarray | None = None, window: np.ndarray | None = None
+                    ) -> DesignFit | None:
+    """The design that best explains one reef's soundings, fitted (:func:`fit_design`).
+
+    The soundings are those nearest to the raster cells within ``margin`` cells of the
+    reef: its own reef soundings (inside), and seabed soundings within ``ground`` m of the
+    seabed and other reefs' soundings (outside). Of the designs, the one with the lowest
+    cost wins; None when it leaves more than ``max_misfit`` of the soundings
+    near its edge on the wrong side or its size factor sits at a bound (another kind of
+    object, a broken reef). Given the reef's measured ``reef_height``, only the designs
+    whose height is within 0.3 m + 20 % of it are tried (a single-layer cross under noise
+    can look like a double-layer one whose upper layer was missed; its height tells), all
+    of them when none is. ``own`` may give the reef's soundings (indices into ``points``)
+    and ``window`` the cells whose surroundings are searched (default: ``cells``).
+    """
+    if reef_height is not None and math.isfinite(reef_height):
+        near = [d for d in designs if abs(d.height - reef_height) <= 0.3 + 0.2 * d.height]
+        designs = near or designs
+    if not designs:
+        return None
+    wj, wi = np.divmod(cells if window is None else window, raster.nearest.shape[1])
+    idx = soundings_around(raster, wj, wi, margin)
+    if own is None:
+        own = own_soundings(cells, raster, is_reef)
+    inside = np.isin(idx, own)
+    # seabed, and the soundings of other reefs (a touching neighbour stays outside)
+    outside = (~is_reef[idx] & (np.abs(height[idx]) <= ground)) | (is_reef[idx] & ~inside)
+    if inside.sum() < 5 or (inside | outside).sum() < 10:
+        return None
+    x0, y0 = points[own, 0].mean(), points[own, 1].mean()
+    fits = [fit_design(points[idx, :2], inside, outside, d, x0=x0, y0=y0, height=height[idx])
+            for d in designs]
+    best = min(fits, key=lambda f: f.loss)
+    if best.misfit > max_misfit or scale_at_bound(best.scale):
+        return None
+    return best
+
+
+def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
+                              is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
+                              fits: list[DesignFit | None], heights: list[float], *,
+                              max_misfit: float = 0.1
+                              ) -> tuple[list[np.ndarray], list[DesignFit | None], list[float]]:
+    """Join two neighbouring parts that one fitted design explains at least as well as two.
+
+    The thin walls of a hollow reef can fall between pings so that the reef shows as two
+    parts, each of which a whole design can be laid over in more than one place. Parts
+    whose centres lie closer than the largest design's diameter are fitted together; when
+    one design leaves at most ``max_misfit`` of the soundings near its edge on the wrong
+    side and costs no more than the two separate fits (a part no design fits costs
+    without bound), they are one reef. Two reefs side by side are not: one design cannot
+    hold both, and their soundings outside it cost.
+    """
+    if len(parts) < 2:
+        return parts, fits, heights
+    nx = raster.labels.shape[1]
+    cen = np.array([[(p % nx).mean(), (p // nx).mean()] for p in parts]) * raster.cell
+    reach = 2 * max(d.radius for d in designs)
+    pairs = sorted(cKDTree(cen).query_pairs(reach),
+                   key=lambda ij: float(np.hypot(*(cen[ij[0]] - cen[ij[1]]))))
+    parts, fits, heights = list(parts), list(fits), list(heights)
+    alive = [True] * len(parts)
+    by_name = {d.name: d for d in designs}
+    for i, j in pairs:
+        if not (alive[i] and alive[j]):
+            continue
+        fi, fj = fits[i], fits[j]
+        if fi is not None and fj is not None:
+            # two reefs each fitted by a design, the fitted footprints well apart: no question
+            ri, rj = by_name[fi.design].radius * fi.scale, by_name[fj.design].radius * fj.scale
+            if math.hypot(fi.x - fj.x, fi.y - fj.y) >= 0.8 * (ri + rj):
+                continue
+        union = np.concatenate([parts[i], parts[j]])
+        f = fit_reef_design(points, union, raster, is_reef, height, designs,
+                            reef_height=max(heights[i], heights[j]), max_misfit=max_misfit)
+        apart = sum(math.inf if g is None else g.loss for g in (fits[i], fits[j]))
+        if f is not None and f.loss <= apart:
+            parts[i], fits[i], heights[i] = union, f, max(heights[i], heights[j])
+            alive[j] = False
+    keep = [k for k in range(len(parts)) if alive[k]]
+    return [parts[k] for k in keep], [fits[k] for k in keep], [heights[k] for k in keep]
+
+
+def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Raster,
+                      is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
+                      fits: list[DesignFit | None], heights: Sequence[float], rounds: int = 2
+                      ) -> list[DesignFit | None]:
+    """Share the soundings of touching reefs by their fitted designs, and fit again.
+
+    Where two reefs lie close (their fitted footprints within 0.5 m), the split between
+    them came from the free-form raster; each of their soundings now goes to the fitted
+    design it lies deeper inside (smaller signed distance), and both are fitted again.
+    """
+    by_name = {d.name: d for d in designs}
+    fits = list(fits)
+    ok = [k for k, f in enumerate(fits) if f is not None]
+    if len(ok) < 2:
+        return fits
+    cen = np.array([[fits[k].x, fits[k].y] for k in ok])  # type: ignore[union-attr]
+    rad = np.array([by_name[fits[k].design].radius * fits[k].scale for k in ok])  # type: ignore[union-attr]
+    tree = cKDTree(cen)
+    pairs = [(ok[a], ok[b]) for a, b in sorted(tree.query_pairs(2 * float(rad.max()) + 0.5))
+             if np.hypot(*(cen[a] - cen[b])) < rad[a] + rad[b] + 0.5]
+    for i, j in pairs:
+        own = np.union1d(own_soundings(parts[i], raster, is_reef), own_soundings(parts[j], raster, is_reef))
+        window = np.concatenate([parts[i], parts[j]])
+        for _ in range(rounds):
+            fi, fj = fits[i], fits[j]
+            if fi is None or fj is None:
+                break
+            di = by_name[fi.design].signed_distance(points[own, :2], fi.origin[0], fi.origin[1],
+                                                    fi.bearing_deg, fi.scale)
+            dj = by_name[fj.design].signed_distance(points[own, :2], fj.origin[0], fj.origin[1],
+                                                    fj.bearing_deg, fj.scale)
+            mine = di <= dj
+            if mine.all() or not mine.any():
+                break
+            fits[i] = fit_reef_design(points, parts[i], raster, is_reef, height, designs,
+                                      reef_height=heights[i], own=own[mine], window=window)
+            fits[j] = fit_reef_design(points, parts[j], raster, is_reef, height, designs,
+                                      reef_height=heights[j], own=own[~mine], window=window)
+    return fits
+
+
+def with_design(reef: Reef, fit: DesignFit | None) -> Reef:
+    """A reef's measures with its centre, area, rectangle and outline from a fitted design."""
+    if fit is None:
+        return reef
+    rect = min_area_rectangle(fit.outline)
+    return replace(reef, x=fit.x, y=fit.y, area=fit.area, length=rect.length, width=rect.width,
+                   orientation_deg=rect.bearing_deg,
+                   envelope_volume=rect.length * rect.width * reef.height,
+                   outline=tuple(map(tuple, np.round(fit.outline, 3).tolist())), design=fit.design,
+                   design_scale=fit.scale, design_bearing_deg=fit.bearing_deg,
+                   design_misfit=fit.misfit)

@@ -1,0 +1,61 @@
+"""Stage 7: reefs grouped by their centres, groups described."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..geometry import convex_hull, polygon_area
+from ..segment import components
+from .results import Reef
+
+__all__ = ["group_reefs", "number_reefs"]
+
+
+def group_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
+    if not reefs:
+        return [], []
+    xy = np.array([[r.x, r.y] for r in reefs])
+    lab = components(xy, eps=link, min_points=1)
+    centres = np.array([xy[lab == g].mean(axis=0) for g in range(lab.max() + 1)])
+    order = np.lexsort((centres[:, 0], -np.round(centres[:, 1] / max(link, 1e-9))))
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    gid = [int(rank[g]) + 1 for g in lab]
+    groups = []
+    for g in range(1, len(order) + 1):
+        members = [r for r, k in zip(reefs, gid, strict=True) if k == g]
+        outline = np.concatenate([np.asarray(m.outline) if m.outline else np.array([[m.x, m.y]])
+                                  for m in members])
+        hull = convex_hull(outline)
+        groups.append({"id": g, "count": len(members),
+                       "x": float(np.mean([m.x for m in members])),
+                       "y": float(np.mean([m.y for m in members])),
+                       "area": polygon_area(hull) if len(hull) >= 3 else 0.0,
+                       "reef_area": float(sum(m.area for m in members)),
+                       "mean_height": float(np.mean([m.height for m in members]))})
+    return gid, groups
+
+
+def number_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[Reef], list[dict[str, Any]]]:
+    """Reefs in reading order (rows of 3 m from north to south, west to east within a
+    row) with ids from 1 and their groups (:func:`group_reefs`).
+
+    Parameters
+    ----------
+    reefs : sequence of Reef
+    link : float
+        Group linking distance (m).
+
+    Returns
+    -------
+    reefs : list of Reef
+    groups : list of dict
+    """
+    order = sorted(range(len(reefs)), key=lambda i: (-round(reefs[i].y / 3.0), reefs[i].x))
+    ordered = [reefs[i] for i in order]
+    gid, groups = group_reefs(ordered, link)
+    return [replace(r, id=i + 1, group=g) for i, (r, g) in enumerate(zip(ordered, gid, strict=True))], groups

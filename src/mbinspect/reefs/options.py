@@ -1,0 +1,95 @@
+"""Every option of the reef pipeline, with its unit, default and check, declared once."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..checks import fail
+from ..designs import ReefDesign, parse_designs
+from ..options import CHOICES, Options, crop_value, option, parse_crop
+
+__all__ = ["ReefOptions", "REEF_METHODS"]
+
+#: Extraction methods: ours and the paper's plain one.
+REEF_METHODS = CHOICES["reef_method"]
+
+
+def _designs(name: str, value: Any) -> tuple[ReefDesign, ...]:
+    return parse_designs(value)
+
+
+@dataclass(frozen=True)
+class ReefOptions(Options):
+    """Options of :func:`~mbinspect.reefs.extract_reefs`; each is checked on creation.
+
+    ``design`` takes built-in design names or JSON design files, comma-separated, or
+    :class:`~mbinspect.designs.ReefDesign` objects, and holds the designs read. The table
+    of every option is ``ReefOptions.describe()``; ``mbinspect reefs --help`` lists the
+    same under their flags.
+
+    Examples
+    --------
+    >>> ReefOptions(design="cross2").design[0].name
+    'cross2'
+    >>> ReefOptions(max_slope_deg=100)
+    Traceback (most recent call last):
+    ...
+    mbinspect.errors.ParameterError: max_slope_deg: 100; expected a number > 0 deg and < 90 deg
+    """
+
+    method: str = option("local", help="ours (local) or the paper's plain method (radius filter, one "
+                         "plane, Euclidean clusters)", choices="reef_method")
+    tolerance: float = option(1.5, unit="m", help="matching distance to the reference", check="positive")
+    crop: tuple[Any, ...] | None = option(
+        None, unit="m", help="keep only this box (xmin,ymin,xmax,ymax) or polygon (x1,y1,x2,y2,...)",
+        check=crop_value, kind=tuple, metavar="XMIN,YMIN,XMAX,YMAX", parse=parse_crop)
+    exclude_rough: bool = option(True, help="exclude steep, rough terrain automatically", check="bool")
+    max_slope_deg: float = option(15.0, unit="deg", help="steeper terrain is excluded", check="angle",
+                                  flag="max-slope")
+    max_roughness: float = option(0.2, unit="m", help="rougher terrain (RMS) is excluded", check="positive")
+    noise_radius: float = option(0.5, unit="m", help="the paper's radius filter r", check="positive")
+    noise_neighbors: int = option(3, help="radius filter: noise if at most this many neighbours",
+                                  check="whole", metavar="N")
+    statistical_k: int = option(8, help="statistical filter neighbours on the reef points (0: off)",
+                                check="whole", metavar="K")
+    statistical_ratio: float = option(3.0, help="statistical filter: standard deviations kept",
+                                      check="positive", metavar="R")
+    seabed: str = option("auto", help="RANSAC plane, local grid, or the plane where it fits (auto)",
+                         choices="seabed")
+    plane_threshold: float = option(0.5, unit="m", help="the paper's RANSAC distance D", check="positive")
+    confidence: float = option(0.99, help="the paper's RANSAC confidence q", check="fraction", metavar="Q")
+    max_plane_dev: float = option(0.08, unit="m", help="auto keeps the plane while it departs from the "
+                                  "local seabed by at most this", check="positive")
+    seabed_cell: float = option(0.5, unit="m", help="local seabed grid cell", check="positive")
+    seabed_window: float = option(6.0, unit="m", help="local seabed opening window (wider than a reef)",
+                                  check="positive")
+    min_height: float = option(0.3, unit="m", help="reef core height above the seabed", check="positive")
+    foot_height: float = option(0.15, unit="m", help="reef foot height above the seabed", check="positive")
+    cell: float = option(0.1, unit="m", help="plan raster cell of the footprints", check="positive")
+    reef_area: float | None = option(None, unit="m²", help="single-reef footprint (none: learnt)",
+                                     check="positive", kind=float, metavar="M2")
+    design: Any = option(None, help="the reef designs deployed: built-in names (cross2, cross1, hollow, "
+                         "triangle) or JSON design files, comma-separated; each reef is then fitted by "
+                         "its design", check=_designs, kind=str, metavar="NAMES")
+    min_area: float = option(1.0, unit="m²", help="smaller objects are not reefs", check="positive",
+                             metavar="M2")
+    group_link: float = option(12.0, unit="m", help="reefs closer than this (chained) form a group",
+                               check="positive")
+    cluster_eps: float = option(0.5, unit="m", help="the paper's Euclidean clustering distance "
+                                "(paper method)", check="positive")
+    seed: int = option(0, help="random seed", check="seed")
+
+    def check_together(self) -> None:
+        if self.foot_height > self.min_height:
+            raise fail("foot_height", self.foot_height, f"at most min_height ({self.min_height} m)")
+
+    @property
+    def designs(self) -> tuple[ReefDesign, ...]:
+        """The designs deployed (empty when none was given)."""
+        return self.design or ()
+
+    def value_for_json(self, name: str) -> Any:
+        if name == "design":
+            return [d.to_dict() for d in self.designs] or None
+        return getattr(self, name)

@@ -1,0 +1,39 @@
+"""The paper's plain method: Euclidean clusters of the points off one plane as reefs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..geometry import convex_hull, min_area_rectangle, polygon_area
+from ..segment import components
+from .ground import Seabed
+from .results import Reef
+
+__all__ = ["paper_clusters"]
+
+
+def paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, eps: float,
+                    min_area: float) -> tuple[list[Reef], list[dict[str, Any]]]:
+    """The paper's individual reefs: Euclidean clusters of the off-plane points."""
+    idx = np.flatnonzero(is_reef)
+    lab = components(points[idx], eps=eps, min_points=5)
+    reefs, others = [], []
+    for k in range(lab.max() + 1 if len(lab) else 0):
+        p = points[idx[lab == k]]
+        hull = convex_hull(p[:, :2])
+        area = abs(polygon_area(hull)) if len(hull) >= 3 else 0.0
+        x, y = p[:, :2].mean(axis=0)
+        z_sea = float(seabed.elevation(np.array([x]), np.array([y]))[0])
+        z_top = float(p[:, 2].max())
+        rect = min_area_rectangle(p[:, :2])
+        if area < min_area:
+            others.append({"x": float(x), "y": float(y), "height": z_top - z_sea, "area": area,
+                           "z_top": z_top, "n_points": len(p)})
+            continue
+        h = z_top - z_sea
+        reefs.append(Reef(0, float(x), float(y), z_sea, z_top, h, area, rect.length, rect.width,
+                          rect.bearing_deg, area * h, rect.length * rect.width * h, len(p),
+                          outline=tuple(map(tuple, np.round(hull, 3).tolist()))))
+    return reefs, others

@@ -1,0 +1,108 @@
+"""What the reef pipeline returns: one record per reef and the whole result."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..evaluate import Evaluation
+from ..outputs import to_jsonable
+from .terrain import TerrainMask
+
+__all__ = ["Reef", "ReefResult"]
+
+
+@dataclass(frozen=True)
+class Reef:
+    """One reef's measures; ``to_dict()`` is a row of ``reefs.json``."""
+
+    id: int
+    x: float
+    y: float
+    z_seabed: float
+    z_top: float
+    height: float
+    area: float
+    length: float
+    width: float
+    orientation_deg: float
+    volume: float
+    envelope_volume: float
+    n_points: int
+    group: int = 0
+    outline: tuple[tuple[float, float], ...] = field(default=(), repr=False)
+    design: str = ""
+    design_scale: float = math.nan
+    design_bearing_deg: float = math.nan
+    design_misfit: float = math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        """One row of ``reefs.json`` (``outline``: the footprint polygon, m)."""
+        d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
+                                             "length", "width", "orientation_deg", "volume",
+                                             "envelope_volume", "n_points", "group", "design",
+                                             "design_scale", "design_bearing_deg", "design_misfit")}
+        d["outline"] = [list(v) for v in self.outline]
+        return to_jsonable(d)
+
+
+@dataclass(frozen=True, eq=False)
+class ReefResult:
+    """Everything :func:`~mbinspect.reefs.extract_reefs` measured; ``to_dict()`` is ``reefs.json``.
+
+    Attributes
+    ----------
+    reefs : tuple of Reef
+        In reading order (north to south, west to east), ids from 1.
+    groups, others : tuple of dict
+        The groups of reefs, and the objects too small to be reefs.
+    seabed, filters : dict
+        The seabed model used and its ground residual; what each filter removed.
+    evaluation : Evaluation or None
+        The score against the reference, when one was given.
+    parameters : dict
+        The options (``ReefOptions.to_dict()``), the input and the software version; the
+        command line adds the input file's size and sha256 and the command.
+    warnings : tuple of str
+    region, surface
+        The excluded terrain and the seabed surface (for figures).
+    footprint : dict
+        ``reef_area_used``: the single-reef area the splitting used (m²).
+    reference_xy : ndarray (R, 2) or None
+        The reference positions scored against.
+    """
+
+    reefs: tuple[Reef, ...]
+    groups: tuple[dict[str, Any], ...]
+    others: tuple[dict[str, Any], ...]
+    seabed: dict[str, Any]
+    filters: dict[str, Any]
+    evaluation: Evaluation | None
+    parameters: dict[str, Any]
+    warnings: tuple[str, ...] = ()
+    region: TerrainMask | None = field(default=None, repr=False)
+    surface: Any = field(default=None, repr=False)
+    footprint: dict[str, Any] = field(default_factory=dict)
+    reference_xy: np.ndarray | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result as JSON-ready dicts and lists (``reefs.json``)."""
+        ev = None
+        if self.evaluation is not None:
+            ev = self.evaluation.to_dict()
+            ids = [r.id for r in self.reefs]
+            for m in ev["matches"]:
+                m["reef"] = ids[m.pop("detection")]
+            ev["unmatched_reefs"] = [ids[i] for i in ev.pop("unmatched_detections")]
+            ev["reference_xy"] = self.reference_xy
+        return to_jsonable({
+            "reefs": [r.to_dict() for r in self.reefs],
+            "groups": list(self.groups), "others": list(self.others),
+            "seabed": self.seabed, "filters": self.filters, "evaluation": ev,
+            "parameters": self.parameters, "warnings": list(self.warnings),
+            "region": self.region.to_dict() if self.region is not None else None,
+            "footprint": self.footprint,
+        })

@@ -1,0 +1,225 @@
+"""Stage 5b: the footprint's parts made single reefs: fragments of one reef joined, parts
+of several reefs (close or touching) split by K-means, small ones set aside."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..geometry import convex_hull
+from ..segment import kmeans
+from .footprint import Raster, label_parts, nearest_label_raster
+
+__all__ = ["split_reefs", "split_large", "local_reef_area", "merge_fragments", "row_ends", "diameter"]
+
+
+def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float, overall: float,
+                     radius: float = 25.0, min_parts: int = 5, among: np.ndarray | None = None
+                     ) -> np.ndarray:
+    """Single-reef area near each part: the median area of the parts within ``radius`` m.
+
+    A field may hold several kinds of reef in separate groups; a pair of small reefs that
+    touch must be judged against its own kind. Only the parts flagged in ``among`` (all by
+    default) count; fewer than ``min_parts`` of them around: ``overall``.
+    """
+    if not parts:
+        return np.zeros(0)
+    centres = np.array([[(p % nx).mean(), (p // nx).mean()] for p in parts]) * cell
+    use = np.ones(len(parts), bool) if among is None else np.asarray(among, bool)
+    if not use.any():
+        return np.full(len(parts), overall)
+    sel = np.flatnonzero(use)
+    near = cKDTree(centres[sel]).query_ball_point(centres, radius)
+    return np.array([float(np.median(areas[sel[n]])) if len(n) >= min_parts else overall
+                     for n in near])
+
+
+def row_ends(xy: np.ndarray) -> np.ndarray:
+    """The first and last point of every row (equal y) of a point set: the same convex
+    hull as all of them (every point lies between its row's ends), far fewer points."""
+    order = np.lexsort((xy[:, 0], xy[:, 1]))
+    y = xy[order, 1]
+    new = y[1:] != y[:-1]
+    return xy[order[np.r_[True, new] | np.r_[new, True]]]
+
+
+def diameter(xy: np.ndarray) -> float:
+    """Largest distance between two of the points (on their convex hull)."""
+    h = convex_hull(row_ends(xy))
+    if len(h) < 2:
+        return 0.0
+    d = h[:, None, :] - h[None, :, :]
+    return float(np.sqrt((d**2).sum(axis=2)).max())
+
+
+def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float,
+                     reef_area: float | np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """Join fragments that together make one reef.
+
+    A thin wall square to the track can fall between two pings and vanish, so a hollow
+    reef shows as two, three or four separate walls. Fragments (parts under 0.6 of the
+    single-reef area there, ``reef_area`` per part or one value) are joined while the
+    union stays no larger than one reef: area within 1.3 reef areas and
+    diameter within 1.15 times the 90th-percentile diameter of the single reefs plus one
+    cell (a field may mix kinds of reef), the union whose diameter is nearest to that of
+    the whole reefs around it first. A union stays open to more fragments while it is
+    smaller than one reef area.
+    """
+    ra = np.broadcast_to(np.asarray(reef_area, np.float64), (len(parts),))
+    if len(parts) < 2 or not np.isfinite(ra).any():
+        return parts, areas
+    frag = [i for i in range(len(parts)) if areas[i] < 0.6 * ra[i]]
+    single = [i for i in range(len(parts)) if 0.7 * ra[i] <= areas[i] <= 1.3 * ra[i]]
+    if len(frag) < 2 or not single:
+        return parts, areas
+
+    def cells_xy(p: np.ndarray) -> np.ndarray:
+        j, k = np.divmod(p, nx)
+        return np.column_stack([k, j]).astype(np.float64) * cell
+
+    diam = np.array([diameter(cells_xy(parts[i])) for i in single])
+    limit = 1.15 * float(np.percentile(diam, 90)) + cell
+    # the diameter of a whole reef near each fragment (median of the single reefs within 25 m)
+    s_centres = np.array([cells_xy(parts[i]).mean(axis=0) for i in single])
+    s_tree = cKDTree(s_centres)
+
+    def typical(c: np.ndarray) -> float:
+        near = s_tree.query_ball_point(c, 25.0)
+        return float(np.median(diam[near])) if len(near) >= 3 else float(np.median(diam))
+
+    # open unions: (cells, area, single-reef area there, centre)
+    pool = {i: (parts[i], float(areas[i]), float(ra[i]), cells_xy(parts[i]).mean(axis=0)) for i in frag}
+    parts = list(parts)
+    gone: set[int] = set()  # parts absorbed into another
+    while len(pool) >= 2:
+        best = None
+        keys = sorted(pool)
+        for n_a, a in enumerate(keys):
+            pa, aa, ra_a, ca = pool[a]
+            for b in keys[n_a + 1:]:
+                pb, ab, ra_b, cb = pool[b]
+                dist = float(np.hypot(*(ca - cb)))
+                r = max(ra_a, ra_b)
+                if dist > limit or aa + ab > 1.3 * r:
+                    continue
+                # of the possible unions, first the one spanning most nearly one whole reef
+                # (two walls of one hollow reef, not the facing walls of two neighbours)
+                d_union = diameter(np.vstack([cells_xy(pa), cells_xy(pb)]))
+                score = abs(d_union - typical((ca + cb) / 2))
+                if d_union <= limit and (best is None or score < best[0]):
+                    best = (score, a, b)
+        if best is None:
+            break
+        _, a, b = best
+        pa, aa, ra_a, _ = pool.pop(a)
+        pb, ab, ra_b, _ = pool.pop(b)
+        parts[a] = np.concatenate([pa, pb])
+        gone.add(b)
+        r = max(ra_a, ra_b)
+        if aa + ab < r:  # still smaller than one reef: open to more fragments
+            pool[a] = (parts[a], aa + ab, r, cells_xy(parts[a]).mean(axis=0))
+    out = [p for i, p in enumerate(parts) if i not in gone]
+    return out, np.array([len(p) for p in out]) * cell * cell
+
+
+def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
+                reach: float = 0.6, reef_area: float | None = None, min_area: float = 1.0,
+                split_factor: float = 1.5, own: float = 1.5, bridge: float = 3.5,
+                link: float = 0.3, seed: int = 0, height: np.ndarray | None = None,
+                wall: float = 0.7
+                ) -> tuple[list[np.ndarray], list[np.ndarray], Raster, float]:
+    """Single reefs from reef points.
+
+    A plan raster of ``cell`` m is labelled by its nearest sounding within ``reach`` m
+    (reef or seabed), which places each outline halfway between reef and seabed
+    soundings; a reef cell must also lie within ``own`` sounding spacings (the median
+    distance between neighbouring soundings there) of a reef sounding, so that no reef
+    spreads into its acoustic shadow; a sounding on a side wall (lower than ``wall`` times
+    the highest reef sounding within 0.4 m, given ``height`` above the seabed) marks the
+    edge itself and claims only the cells on the reef's side of it; gaps between pings
+    inside a reef are bridged by a closing of radius ``bridge`` spacings (which does not
+    grow outer edges) and enclosed gaps filled; parts closer than ``2 * link`` m are one
+    candidate (walls of a hollow reef). Scaling ``own`` and ``bridge`` with the spacing
+    keeps the footprint unbiased from sparse to dense surveys.
+    A part whose area exceeds
+    ``split_factor`` times the single-reef area (``reef_area``, or else the median area of
+    the parts of at least ``min_area`` within 25 m, so that each group of a mixed field is
+    judged by its own kind) holds ``round(area / reef_area)`` reefs and is split by
+    seeded K-means on its cells.
+
+    Returns
+    -------
+    reefs, others : lists of cell-index arrays (flat indices into the raster) of reefs and
+        of objects smaller than ``min_area``
+    raster : the labelled raster
+    reef_area : the single-reef area used (m²)
+    """
+    pts = np.asarray(points, np.float64)
+    if not is_reef.any():
+        empty = Raster(0.0, 0.0, cell, np.zeros((1, 1), np.int64), np.full((1, 1), -1))
+        return [], [], empty, reef_area or math.nan
+    reef_mask, nearest, x0, y0 = nearest_label_raster(pts, is_reef, cell=cell, reach=reach,
+                                                       own=own, bridge=bridge, height=height,
+                                                       wall=wall)
+    parts, (ny, nx) = label_parts(reef_mask, cell=cell, link=link)
+    areas = np.array([len(p) for p in parts]) * cell * cell
+    big = areas >= min_area
+    given_area = reef_area
+    if reef_area is None:
+        reef_area = float(np.median(areas[big])) if big.any() else math.nan
+        near_area = local_reef_area(parts, areas, nx, cell, reef_area, among=big)
+    else:
+        near_area = np.full(len(parts), reef_area)
+    parts, areas = merge_fragments(parts, areas, nx, cell, near_area)
+    big = areas >= min_area
+    others = [p for p, b in zip(parts, big, strict=True) if not b]
+    big_parts = [p for p, b in zip(parts, big, strict=True) if b]
+    local_area = local_reef_area(big_parts, areas[big], nx, cell, reef_area) if given_area is None \
+        else np.full(len(big_parts), reef_area)
+    reefs = split_large(big_parts, areas[big], local_area, nx=nx, cell=cell, split_factor=split_factor,
+                        seed=seed)
+    labels = np.zeros(ny * nx, dtype=np.int64)
+    for i, p in enumerate(reefs):
+        labels[p] = i + 1
+    return reefs, others, Raster(x0, y0, cell, labels.reshape(ny, nx), nearest), reef_area
+
+
+def split_large(parts: list[np.ndarray], areas: np.ndarray, reef_area: np.ndarray, *, nx: int, cell: float,
+                split_factor: float = 1.5, seed: int = 0) -> list[np.ndarray]:
+    """Parts larger than ``split_factor`` single reefs split into ``round(area / reef_area)``
+    reefs by K-means on their cells (seeded ``seed``, ``seed + 1``... in order).
+
+    Parameters
+    ----------
+    parts : list of ndarray
+        Flat raster cell indices of each part.
+    areas, reef_area : ndarray
+        Each part's area and the single-reef area around it (m²).
+    nx : int
+        Raster columns.
+    cell : float
+        Raster cell (m).
+    split_factor : float
+        A part above this many single-reef areas is several reefs.
+    seed : int
+
+    Returns
+    -------
+    list of ndarray
+        The single reefs' cells.
+    """
+    reefs: list[np.ndarray] = []
+    rng_seed = seed
+    for p, a, ra in zip(parts, areas, reef_area, strict=True):
+        n = max(2, int(round(a / ra))) if math.isfinite(ra) and a > split_factor * ra else 1
+        if n <= 1:
+            reefs.append(p)
+            continue
+        cj, ci = np.divmod(p, nx)
+        xy = np.column_stack([ci, cj]).astype(np.float64) * cell
+        lab_k, _ = kmeans(xy, n, seed=rng_seed)
+        rng_seed += 1
+        reefs += [p[lab_k == j] for j in range(n) if (lab_k == j).any()]
+    return reefs

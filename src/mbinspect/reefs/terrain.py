@@ -1,0 +1,175 @@
+"""Stage 1: steep or rough terrain, where reefs cannot be told from the seabed, found from
+the robust local seabed (the paper cut the uneven near-shore area away by hand)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from ..checks import check_points, positive, within
+from ..grid import cell_index, coverage
+from ..seabed import GridSurface, grid_seabed
+
+__all__ = ["TerrainMask", "rough_terrain", "Ground", "screen_terrain"]
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainMask:
+    """Cells of a coarse grid judged too steep or rough for reef extraction."""
+
+    x0: float
+    y0: float
+    cell: float
+    excluded: np.ndarray  # (nx, ny) bool
+    slope_deg: np.ndarray
+    roughness: np.ndarray
+    max_slope_deg: float
+    max_roughness: float
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for points that fall in an excluded cell."""
+        p = np.asarray(points, np.float64)
+        i, j = cell_index(p, self.x0, self.y0, self.cell)
+        nx, ny = self.excluded.shape
+        # a point just past the grid's edge belongs to the edge cell
+        return self.excluded[np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)]
+
+    @property
+    def excluded_area(self) -> float:
+        return float(self.excluded.sum()) * self.cell**2
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"excluded_area": self.excluded_area, "cell": self.cell,
+                "max_slope_deg": self.max_slope_deg, "max_roughness": self.max_roughness,
+                "excluded_cells": int(self.excluded.sum())}
+
+
+def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float = 15.0,
+                  max_roughness: float = 0.2, min_area: float = 100.0, margin: int = 2,
+                  surface: GridSurface | None = None, height: np.ndarray | None = None
+                  ) -> TerrainMask:
+    """Steep or rough terrain: cells where the seabed itself is too steep or too rough.
+
+    Both are measured on the robust local seabed surface (which sees through reefs, so a
+    reef group is not "rough"): slope from the surface averaged over ``cell`` m; roughness
+    the larger of the RMS of the surface about its 2 m Gaussian smoothing and the RMS of
+    the soundings within ±0.5 m of the surface (rock relief narrower than the opening). Patches are
+    closed and filled, those smaller than ``min_area`` m² are kept (a lone steep cell is a
+    sand-wave lee, not a shore), and the rest widened by ``margin`` cells. ``height`` may
+    give the points' heights above ``surface`` when the caller has them.
+    """
+    pts = check_points(points, minimum=10)
+    within("max_slope_deg", max_slope_deg, 0.0, 90.0, open_lo=True, open_hi=True, unit="deg")
+    positive("max_roughness", max_roughness)
+    fine = surface if surface is not None else grid_seabed(pts, cell=0.5, window=6.0)
+    f = max(1, int(round(cell / fine.cell)))
+    px, py = (-fine.z.shape[0]) % f, (-fine.z.shape[1]) % f  # pad to whole coarse cells
+    z = np.pad(fine.z, ((0, px), (0, py)), mode="edge")
+    obs = np.pad(fine.observed, ((0, px), (0, py)))
+    nx, ny = z.shape
+    coarse = z.reshape(nx // f, f, ny // f, f).mean(axis=(1, 3))
+    seen = obs.reshape(nx // f, f, ny // f, f).any(axis=(1, 3))
+    step = fine.cell * f
+    gx, gy = np.gradient(coarse, step)
+    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    detail = z - ndimage.gaussian_filter(z, 2.0 / fine.cell, mode="nearest")
+    rough = np.sqrt((detail**2).reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)))
+    # rocks narrower than the opening window vanish from the surface: measure the soundings
+    # too, within +-0.5 m of it (reef tops stand higher and drop out, rock relief does not)
+    h = fine.height_above(pts) if height is None or surface is None else height
+    near = np.abs(h) <= 0.5
+    ci, cj = cell_index(pts[near], fine.x0, fine.y0, step)
+    ok = (ci >= 0) & (ci < nx // f) & (cj >= 0) & (cj < ny // f)
+    key = ci[ok] * (ny // f) + cj[ok]
+    cnt = np.bincount(key, minlength=(nx // f) * (ny // f))
+    ss = np.bincount(key, weights=h[near][ok] ** 2, minlength=(nx // f) * (ny // f))
+    point_rough = np.sqrt(ss / np.maximum(cnt, 1)).reshape(nx // f, ny // f)
+    rough = np.maximum(rough, np.where(cnt.reshape(nx // f, ny // f) >= 5, point_rough, 0.0))
+    bad = ((slope > max_slope_deg) | (rough > max_roughness)) & seen
+    # one patch of rough ground has gentler cells inside and at its rim: close, fill, widen
+    bad = ndimage.binary_closing(np.pad(bad, 3), structure=np.ones((5, 5), bool))[3:-3, 3:-3]
+    bad = ndimage.binary_fill_holes(bad)
+    lab, k = ndimage.label(bad)
+    if k:
+        sizes = ndimage.sum(bad, lab, index=np.arange(1, k + 1)) * step * step
+        bad = np.isin(lab, 1 + np.flatnonzero(sizes >= min_area))
+    if margin > 0 and bad.any():
+        bad = ndimage.binary_dilation(bad, structure=np.ones((3, 3), bool), iterations=margin)
+    return TerrainMask(fine.x0, fine.y0, step, bad, slope, rough, max_slope_deg, max_roughness)
+
+
+@dataclass(frozen=True, eq=False)
+class Ground:
+    """The soundings left for the seabed after the terrain screen, and what it found.
+
+    Attributes
+    ----------
+    points : ndarray, shape (M, 3)
+        Soundings outside the excluded terrain (m).
+    height : ndarray (M,) or None
+        Their heights above ``grid``, when it was computed.
+    grid : GridSurface or None
+        The robust local seabed of all the soundings (reused by the seabed stage).
+    region : TerrainMask or None
+        The terrain judged too steep or rough.
+    coverage : float
+        Share of the 1 m cells of the extent holding a sounding.
+    report : dict or None
+        What the exclusion removed (``filters["rough_terrain"]``).
+    warnings : tuple of str
+    """
+
+    points: np.ndarray
+    height: np.ndarray | None
+    grid: GridSurface | None
+    region: TerrainMask | None
+    coverage: float
+    report: dict[str, Any] | None
+    warnings: tuple[str, ...]
+
+
+def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_rough: bool,
+                   max_slope_deg: float, max_roughness: float, seabed_cell: float,
+                   seabed_window: float) -> Ground:
+    """The soundings on which reefs can be told from the seabed.
+
+    Without a seabed in the cloud (under a quarter of the extent covered) terrain is not
+    judged, and a warning says so. ``local`` (our method) computes the robust local
+    seabed once for both this stage and the seabed stage (when ``seabed`` is ``auto`` or
+    ``grid``) and, with ``exclude_rough``, excludes :func:`rough_terrain`.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings after the radius filter (m).
+    local, seabed, exclude_rough, max_slope_deg, max_roughness, seabed_cell, seabed_window
+        As :class:`~mbinspect.reefs.ReefOptions` (``local``: the method is ``"local"``).
+
+    Returns
+    -------
+    Ground
+    """
+    cover = coverage(points) if len(points) else 0.0
+    warnings = []
+    if cover < 0.25:
+        warnings.append(f"the soundings cover only {100 * cover:.0f} % of their extent (1 m cells): "
+                        "is there a seabed in this cloud, or only the objects on it?")
+        exclude_rough = False  # terrain cannot be judged without a seabed
+    grid: GridSurface | None = None
+    height: np.ndarray | None = None
+    if local and seabed in ("auto", "grid") and len(points) >= 3:
+        grid = grid_seabed(points, cell=seabed_cell, window=seabed_window)
+        height = grid.height_above(points)
+    kept, region, report = points, None, None
+    if exclude_rough and local:
+        region = rough_terrain(points, max_slope_deg=max_slope_deg, max_roughness=max_roughness,
+                               surface=grid, height=height)
+        out = region.contains(points)
+        report = {"n_removed": int(out.sum()), **region.to_dict()}
+        if out.any():
+            kept = points[~out]
+            height = height[~out] if height is not None else None
+    return Ground(kept, height, grid, region, cover, report, tuple(warnings))
