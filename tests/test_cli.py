@@ -39,7 +39,7 @@ def test_info_text_and_json(small_file, capsys):
         (["info", "{bad}"], "line 2, column 3: 'oops' is not a number"),
         (["info", "{bad}", "--columns", "x,y"], "expected exactly one 'z' column"),
         (["info"], "the following arguments are required: input"),
-        (["simulate", "jacket", "--radius", "abc"], "invalid float value: 'abc'"),
+        (["simulate", "jacket", "--radius", "abc"], "--radius: 'abc' is not a number"),
         (["simulate", "jacket", "--per-group", "3"], "not an option of the jacket preset"),
         (["frobnicate"], "invalid choice: 'frobnicate'"),
     ],
@@ -64,7 +64,7 @@ def test_simulate_writes_files_and_refuses_to_overwrite(tmp_path, capsys):
     truth = json.loads((out / "truth.json").read_text())
     assert len(truth["piles"]) == 4
     assert main(argv) == 2
-    assert "pass --overwrite" in capsys.readouterr().err
+    assert "or --overwrite to replace it" in capsys.readouterr().err
     assert main([*argv, "--overwrite", "--tilt-max-deg", "4"]) == 0
     assert json.loads((out / "truth.json").read_text())["options"]["tilt_max_deg"] == 4.0
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

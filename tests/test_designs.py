@@ -81,7 +81,7 @@ def test_design_files_and_names(tmp_path):
     assert (d.name, d.symmetry, d.area) == ("cube3", 4, pytest.approx(9.0, rel=0.01))
     assert [x.name for x in parse_designs(f"cross2, {path}")] == ["cross2", "cube3"]
     assert parse_designs(None) == ()
-    with pytest.raises(ParameterError, match="'cross3' is neither a built-in design"):
+    with pytest.raises(ParameterError, match="design: 'cross3'; expected a built-in design"):
         parse_designs("cross3")
     bad = tmp_path / "bad.json"
     bad.write_text('{"boxes": [{"length": 3, "width": -1, "height": 1}]}')

@@ -155,9 +155,10 @@ def test_bad_design_rows_name_the_line(tmp_path, text, pattern):
 
 
 def test_bad_parameters_are_named(jacket_small):
-    for kw, pattern in (({"radius": -1}, "--radius: -1"), ({"radius": 0.75, "method": "x"}, "--method"),
-                        ({"radius": 0.75, "count": 0}, "--count: 0"),
-                        ({"radius": 0.75, "crop": (5, 5, 1, 1)}, "--crop")):
+    for kw, pattern in (({"radius": -1}, "^radius: -1; expected a positive"),
+                        ({"radius": 0.75, "method": "x"}, "^method: 'x'; expected one of intersection"),
+                        ({"radius": 0.75, "count": 0}, "^count: 0; expected a whole number >= 1"),
+                        ({"radius": 0.75, "crop": (5, 5, 1, 1)}, "^crop: \\[5.0, 5.0, 1.0, 1.0\\]")):
         with pytest.raises(ParameterError, match=pattern):
             locate_piles(jacket_small.cloud, **kw)
 

@@ -227,4 +227,4 @@ def test_cli_reefs_end_to_end(tmp_path, reef_small, capsys):
     ring = gj["features"][0]["geometry"]["coordinates"][0]
     assert ring[0] == ring[-1] and len(ring) >= 4
     assert main(["reefs", str(src), "--min-height", "-1", "--out", str(tmp_path / "o2")]) == 2
-    assert "--min-height: -1.0 must be positive" in capsys.readouterr().err
+    assert "--min-height: -1.0; expected a positive finite number" in capsys.readouterr().err

@@ -141,11 +141,11 @@ def test_reef_field_has_close_and_touching_pairs(reef_small):
 
 
 def test_bad_options_are_named():
-    with pytest.raises(ParameterError, match="unknown option 'bogus'"):
+    with pytest.raises(ParameterError, match="bogus: not an option of the jacket preset"):
         simulate("jacket", bogus=1)
-    with pytest.raises(ParameterError, match="preset 'pier' is unknown"):
+    with pytest.raises(ParameterError, match="preset: 'pier'; expected one of"):
         simulate("pier")
     with pytest.raises(ParameterError, match="lines: 'up'"):
         simulate("jacket", lines="up")
-    with pytest.raises(ParameterError, match="must be positive"):
+    with pytest.raises(ParameterError, match="radius: 0.0; expected a positive number"):
         simulate("jacket", radius=0.0)

@@ -52,6 +52,7 @@ __all__ = [
     "write",
     "format_from_path",
     "parse_columns",
+    "check_read_options",
     "CloudSummary",
     "describe",
 ]
@@ -214,6 +215,47 @@ def parse_columns(spec: str | Sequence[str]) -> list[str | None]:
 # --------------------------------------------------------------------------- reading
 
 
+def check_read_options(path: str | os.PathLike[str], *, format: str | None = None,
+                       columns: str | Sequence[str] | None = None, delimiter: str | None = None) -> str:
+    """Check the reading options of :func:`read` without reading; return the format.
+
+    Parameters
+    ----------
+    path : path-like
+        The file (its extension decides the format unless ``format`` is given).
+    format, columns, delimiter
+        As :func:`read`.
+
+    Returns
+    -------
+    str
+        The format name (``xyz``, ``las``, ``ply`` or ``npz``).
+
+    Raises
+    ------
+    ParameterError
+        Naming the option: an unknown format or delimiter, a column map without one x, y
+        and z, a column map for a file that is not ASCII.
+    InputError
+        An extension that names no format.
+
+    Examples
+    --------
+    >>> check_read_options("survey.laz"), check_read_options("a.txt", format="laz")
+    ('las', 'las')
+    """
+    fmt = format_from_path(path, format)
+    if delimiter is not None and delimiter.lower() not in DELIMITERS:
+        raise ParameterError(f"delimiter: {delimiter!r}; expected one of ',' ';' tab space",
+                             option="delimiter")
+    if columns is not None:
+        if fmt != "xyz":
+            raise ParameterError(f"columns: {columns!r} given for the {fmt} file {path}; expected it "
+                                 "for ASCII files only", option="columns")
+        parse_columns(columns)
+    return fmt
+
+
 def read(
     path: str | os.PathLike[str],
     *,
@@ -257,13 +299,7 @@ def read(
         raise FileAccessError(f"{p}: no such file")
     if p.is_dir():
         raise FileAccessError(f"{p}: is a directory, expected a point cloud file")
-    fmt = format_from_path(p, format)
-    if delimiter is not None and delimiter.lower() not in DELIMITERS:
-        raise ParameterError(f"delimiter: {delimiter!r}; expected one of ',' ';' tab space",
-                             option="delimiter")
-    if fmt != "xyz" and columns is not None:
-        raise ParameterError(f"columns: {columns!r} given for the {fmt} file {p}; expected it for "
-                             "ASCII files only", option="columns")
+    fmt = check_read_options(p, format=format, columns=columns, delimiter=delimiter)
     try:
         if p.stat().st_size == 0:
             raise InputError(f"{p}: the file is empty")
@@ -479,6 +515,8 @@ def _worker_init() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # the command line blocks both in its main thread; a worker must die on SIGTERM
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     try:
         import ctypes
 

@@ -39,7 +39,7 @@ from .errors import ParameterError
 from .outputs import to_jsonable
 
 __all__ = ["CHOICES", "OptionSpec", "option", "Options", "add_flags", "given_options", "flag_names",
-           "parse_crop", "crop_value"]
+           "parse_crop", "crop_value", "typed_parser"]
 
 #: Every string option's choices, by registry key.
 CHOICES: dict[str, tuple[str, ...]] = {
@@ -160,6 +160,14 @@ class Options:
         return dataclasses.replace(self, **changes)
 
     @classmethod
+    def from_given(cls, given: dict[str, Any]) -> Any:
+        """An instance from the options given by name; a missing required one is named."""
+        for f, spec in cls.specs():
+            if f.default is MISSING and f.name not in given:
+                raise ParameterError(f"{f.name}: missing; expected {spec.help} ({spec.unit})", option=f.name)
+        return cls(**given)
+
+    @classmethod
     def specs(cls) -> Iterator[tuple[dataclasses.Field[Any], OptionSpec]]:
         """Every option's field and spec, in declaration order."""
         for f in dataclasses.fields(cls):
@@ -197,7 +205,8 @@ def flag_names(cls: type[Options]) -> dict[str, str]:
     return {f.name: _flag(f, spec) for f, spec in cls.specs() if spec.cli}
 
 
-def _typed(kind: type, name: str) -> Callable[[str], Any]:
+def typed_parser(kind: type, name: str) -> Callable[[str], Any]:
+    """An argparse ``type=`` for ``kind`` (int or float) that refuses non-finite numbers."""
     def parse(text: str) -> Any:
         try:
             value = kind(text)
@@ -212,6 +221,12 @@ def _typed(kind: type, name: str) -> Callable[[str], Any]:
     return parse
 
 
+def _annotated(f: dataclasses.Field[Any]) -> type:
+    """The type a field's annotation names first (``"float | None"`` -> float)."""
+    name = str(f.type).split("|")[0].strip()
+    return {"float": float, "int": int, "bool": bool}.get(name, str)
+
+
 def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: type[Options], *,
               skip: tuple[str, ...] = ()) -> None:
     """Add one flag per command-line option of ``cls`` to ``group``.
@@ -224,10 +239,10 @@ def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: typ
         if not spec.cli or f.name in skip:
             continue
         default = None if f.default is MISSING else f.default
-        kind = spec.kind or (type(default) if default is not None else str)
+        kind = spec.kind or (type(default) if default is not None else _annotated(f))
         unit = f" ({spec.unit})" if spec.unit else ""
         shown = "required" if f.default is MISSING else ("none" if default is None else default)
-        text = f"{spec.help}{unit}; default {shown}"
+        text = f"{spec.help}{unit}; " + ("required" if f.default is MISSING else f"default {shown}")
         flag = _flag(f, spec)
         dest = f"opt_{f.name}"
         if kind is bool:
@@ -236,7 +251,7 @@ def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: typ
         elif spec.choices is not None:
             group.add_argument(flag, dest=dest, default=None, choices=CHOICES[spec.choices], help=text)
         else:
-            parse = spec.parse or _typed(kind, f.name)
+            parse = spec.parse or typed_parser(kind, f.name)
             metavar = spec.metavar or (spec.unit.upper() if spec.unit else kind.__name__.upper())
             group.add_argument(flag, dest=dest, default=None, type=parse, help=text, metavar=metavar)
 

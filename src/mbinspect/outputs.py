@@ -41,9 +41,28 @@ __all__ = [
     "output_dir",
     "write_json",
     "write_table",
+    "discard_unfinished",
 ]
 
 _STAGING = ".mbinspect-"  # marks the staging folders this package owns
+
+# Staging folders and temporary files being written now, removed by
+# :func:`discard_unfinished` when the process is interrupted.
+_UNFINISHED: set[Path] = set()
+
+
+def discard_unfinished() -> None:
+    """Remove every staging folder and temporary file this process is still writing.
+
+    Called on an interrupt (Ctrl-C, SIGTERM) just before the process exits, so that
+    nothing partial is left behind.
+    """
+    for p in list(_UNFINISHED):
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
+        _UNFINISHED.discard(p)
 
 
 def to_jsonable(value: Any) -> Any:
@@ -87,7 +106,8 @@ def dataclasses_asdict(obj: Any) -> dict[str, Any]:
     """``dataclasses.asdict(obj)`` made JSON-ready (:func:`to_jsonable`)."""
     import dataclasses
 
-    return to_jsonable(dataclasses.asdict(obj))  # type: ignore[no-any-return]
+    out: dict[str, Any] = to_jsonable(dataclasses.asdict(obj))
+    return out
 
 
 def _umask() -> int:
@@ -118,12 +138,15 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         raise FileAccessError(f"{target}: cannot be written ({exc.strerror})") from None
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())
+    _UNFINISHED.add(Path(tmp))
     try:
         yield Path(tmp)
         os.replace(tmp, target)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    finally:
+        _UNFINISHED.discard(Path(tmp))
 
 
 def _alive(pid: int) -> bool:
@@ -220,6 +243,7 @@ def output_dir(path: str | os.PathLike[str], *, overwrite: bool = False,
         raise FileAccessError(f"out: {target} cannot be created ({exc.strerror}); expected a "
                               "writable place", option="out") from None
     os.chmod(tmp, 0o777 & ~_umask())
+    _UNFINISHED.add(tmp)
     try:
         yield tmp
         old = None
@@ -230,6 +254,8 @@ def output_dir(path: str | os.PathLike[str], *, overwrite: bool = False,
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+    finally:
+        _UNFINISHED.discard(tmp)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
 

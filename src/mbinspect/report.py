@@ -217,16 +217,24 @@ _SPACING_COLS = ["a", "b", "distance", "sigma", "design", "deviation", "pass", "
 
 
 def spacing_table(result: Any, truth: Mapping[tuple[int, int], float] | None = None) -> str:
-    """The spacing table as plain text (what ``mbinspect piles`` prints)."""
+    """The spacing table as plain text (what ``mbinspect piles`` prints).
+
+    With both centre methods, each method's spacings, marked by a ``method`` column.
+    """
+    both = bool(result.other_spacings)
     head = f"{'pair':>6} {'distance m':>11} {'1-sigma mm':>10} {'design m':>9} {'dev cm':>7} {'':>5}"
+    if both:
+        head += f" {'method':>12}"
     if truth:
         head += f" {'error vs truth mm':>17}"
     lines = [head]
-    for s in result.spacings:
+    for s in tuple(result.spacings) + tuple(result.other_spacings):
         row = (f"{s.a:>3}-{s.b:<2} {s.distance:>11.4f} {1000 * s.sigma:>10.1f} "
                f"{'' if s.design is None else f'{s.design:.3f}':>9} "
                f"{'' if s.deviation is None else f'{100 * s.deviation:+.1f}':>7} "
                f"{'' if s.passed is None else ('pass' if s.passed else 'FAIL'):>5}")
+        if both:
+            row += f" {s.method:>12}"
         if truth:
             t = truth.get((s.a, s.b))
             row += f" {'' if t is None else f'{1000 * (s.distance - t):+.1f}':>17}"
@@ -248,7 +256,8 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     out.mkdir(parents=True, exist_ok=True)
     d = result.to_dict()
     write_json(d, out / "piles.json")
-    write_table(d["piles"], out / "piles.csv", _PILE_COLS)
+    # with both methods, both methods' piles: one row per pile and method
+    write_table(d["piles"] + d["other_piles"], out / "piles.csv", _PILE_COLS)
     write_table(d["spacings"], out / "spacings.csv", _SPACING_COLS)
     written = ["piles.json", "piles.csv", "spacings.csv"]
     images: dict[str, bytes] = {}
@@ -262,6 +271,9 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
                                                       for w in result.warnings) + "</ul>"))
     sections.append(("Spacings (m)", html_table(d["spacings"], _SPACING_COLS, digits=4)))
     sections.append(("Piles (top centre, m)", html_table(d["piles"], _PILE_COLS, digits=4)))
+    if d["other_piles"]:
+        sections.append(("Piles by the centre method (top centre, m)",
+                         html_table(d["other_piles"], _PILE_COLS, digits=4)))
     if truth is not None:
         tp = {(s["a"], s["b"]): s["distance"] for s in truth.get("spacings", [])}
         sections.append(("Errors against simulator truth",
@@ -270,8 +282,7 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
         sections.append(("Plan view", "{img:plan}"))
         sections.append(("Convergence (the paper's Fig. 4)", "{img:convergence}"))
         sections.append(("Each pile", "".join("{img:" + n + "}" for n in images if n.startswith("pile"))))
-    params = {k: v for k, v in d["parameters"].items() if k != "segmentation_info"}
-    sections.append(("Parameters", f"<pre>{html.escape(json_dumps(params))}</pre>"))
+    sections.append(("Parameters", f"<pre>{html.escape(json_dumps(d['parameters']))}</pre>"))
     page = html_page(title, sections, images)
     with atomic_path(out / "report.html") as tmp:
         tmp.write_text(page, encoding="utf-8")
@@ -329,8 +340,8 @@ def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
             ax.annotate(str(r.id), (r.x, r.y), fontsize=5, ha="center", va="center")
     for o in result.others:
         ax.plot(o["x"], o["y"], "x", color="orange", ms=4)
-    if ev is not None and result.parameters.get("reference_xy") is not None:
-        ref = np.asarray(result.parameters["reference_xy"])
+    if ev is not None and result.reference_xy is not None:
+        ref = np.asarray(result.reference_xy)
         miss = [j for j in ev.unmatched_references]
         if miss:
             ax.plot(ref[miss, 0], ref[miss, 1], "o", mfc="none", mec="blue", ms=8, label="FN (missed)")
@@ -433,8 +444,7 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     if d["others"]:
         sections.append(("Other objects", html_table(d["others"], ["x", "y", "height", "area",
                                                                    "n_points"])))
-    params = {k: v for k, v in d["parameters"].items() if k != "reference_xy"}
-    listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"], "parameters": params})
+    listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"], "parameters": d["parameters"]})
     sections.append(("Filters and parameters", f"<pre>{html.escape(listing)}</pre>"))
     with atomic_path(out / "report.html") as tmp:
         tmp.write_text(html_page(title, sections, images), encoding="utf-8")

@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from .checks import fail, integer
 from .designs import BUILTIN_DESIGNS
 from .errors import ParameterError
 from .geometry import (
@@ -370,6 +371,15 @@ class Survey:
 
     lines: tuple[Line, ...]
     sonar: Sonar = Sonar()
+
+    def estimated_soundings(self) -> int:
+        """Beams times pings over every line: the most soundings the survey can make."""
+        pings = 0
+        for line in self.lines:
+            v = np.asarray(line.vertices, np.float64)
+            length = float(np.hypot(*np.diff(v, axis=0).T).sum())
+            pings += int(length / line.ping_spacing) + 1
+        return pings * self.sonar.n_beams
 
 
 # ---------------------------------------------------------------------------- ray casting
@@ -860,9 +870,7 @@ def _jacket(opt: JacketOptions, rng: np.random.Generator, sonar: Sonar
     lines = []
     for name in [s.strip() for s in opt.lines.split(",") if s.strip()]:
         if name not in catalogue:
-            raise ParameterError(
-                f"lines: {name!r} is not one of {', '.join(catalogue)}"
-            )
+            raise fail("lines", name, f"one of {', '.join(catalogue)}")
         lines += [Line(v, ping_spacing=opt.ping_spacing) for v in catalogue[name]]
     scene = Scene(seabed, tuple(piles), boulders=tuple(boulders),
                   origin=(opt.origin_x, opt.origin_y))
@@ -1010,12 +1018,19 @@ class Simulation:
 
 def _option_names(preset: str) -> tuple[type, Sonar]:
     if preset not in PRESETS:
-        raise ParameterError(f"preset {preset!r} is unknown; expected one of {', '.join(PRESETS)}")
+        raise ParameterError(f"preset: {preset!r}; expected one of {', '.join(PRESETS)}", option="preset")
     return PRESETS[preset]
 
 
-def simulate(preset: str, *, seed: int = 0,
-             progress: Callable[[float], None] | None = None, **overrides: Any) -> Simulation:
+#: Most soundings a simulation makes unless ``force`` (about 5 GB of memory at this size).
+MAX_SOUNDINGS = 50_000_000
+
+#: The survey lines the ``jacket`` preset can sail.
+JACKET_LINES = ("west", "east", "south", "north", "tops")
+
+
+def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | None = None,
+             force: bool = False, **overrides: Any) -> Simulation:
     """Simulate a preset survey with exact truth.
 
     Parameters
@@ -1026,6 +1041,8 @@ def simulate(preset: str, *, seed: int = 0,
         the measurement errors. The same seed gives the same soundings and truth.
     progress : callable, optional
         Called with the fraction of pings done.
+    force : bool
+        Simulate even when the survey would make more than :data:`MAX_SOUNDINGS`.
     **overrides
         Any field of the preset's options (:class:`JacketOptions`,
         :class:`ReefFieldOptions`) or of :class:`Sonar`.
@@ -1033,15 +1050,28 @@ def simulate(preset: str, *, seed: int = 0,
     Returns
     -------
     Simulation
+
+    Raises
+    ------
+    ParameterError
+        An unknown or bad option (named by its library name), a negative seed, or a survey
+        of more than :data:`MAX_SOUNDINGS` without ``force``.
+
+    Examples
+    --------
+    >>> sim = simulate("jacket", seed=1, ping_spacing=1.0)
+    >>> len(sim.truth["piles"]), sim.truth["spacings"][0]["a"]
+    (4, 1)
     """
+    integer("seed", seed, minimum=0, maximum=2**63 - 1)
     opt_cls, sonar = _option_names(preset)
     opt_fields = {f.name for f in dataclasses.fields(opt_cls)}
     sonar_fields = {f.name for f in dataclasses.fields(Sonar)}
     unknown = set(overrides) - opt_fields - sonar_fields
     if unknown:
         raise ParameterError(
-            f"{preset}: unknown option {sorted(unknown)[0]!r}; "
-            f"expected one of {', '.join(sorted(opt_fields | sonar_fields))}"
+            f"{sorted(unknown)[0]}: not an option of the {preset} preset; "
+            f"expected one of {', '.join(sorted(opt_fields | sonar_fields))}", option=sorted(unknown)[0]
         )
     opt = opt_cls(**{k: v for k, v in overrides.items() if k in opt_fields})
     sonar = dataclasses.replace(sonar, **{k: v for k, v in overrides.items() if k in sonar_fields})
@@ -1049,6 +1079,12 @@ def simulate(preset: str, *, seed: int = 0,
     scene_seed, noise_seed = np.random.SeedSequence(seed).spawn(2)
     builder = _jacket if preset == "jacket" else _reef_field
     scene, plan, extra = builder(opt, np.random.default_rng(scene_seed), sonar)
+    estimate = plan.estimated_soundings()
+    if estimate > MAX_SOUNDINGS and not force:
+        raise ParameterError(
+            f"ping_spacing: {opt.ping_spacing} m makes about {estimate / 1e6:,.0f} million soundings; "
+            f"expected at most {MAX_SOUNDINGS / 1e6:,.0f} million (force it with force=True / --force)",
+            option="ping_spacing")
     cloud, labels, ident = survey(scene, plan, seed=int(noise_seed.generate_state(1)[0]),
                                   progress=progress)
     truth = _truth(preset, seed, opt, sonar, scene, labels, extra)
@@ -1063,17 +1099,32 @@ def _check_options(opt: Any, sonar: Sonar) -> None:
             v = getattr(obj, f.name)
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 if not math.isfinite(v):
-                    raise ParameterError(f"--{f.name.replace('_', '-')}: {v} is not finite")
+                    raise fail(f.name, v, "a finite number")
                 if f.name in positive and v <= 0:
-                    raise ParameterError(
-                        f"--{f.name.replace('_', '-')}: {v} must be positive"
-                    )
+                    raise fail(f.name, v, "a positive number")
                 if v < 0 and f.name not in ("top", "seabed", "origin_x", "origin_y"):
-                    raise ParameterError(
-                        f"--{f.name.replace('_', '-')}: {v} is negative; expected >= 0"
-                    )
+                    raise fail(f.name, v, "a number >= 0")
     if sonar.swath_deg >= 170:
-        raise ParameterError(f"--swath-deg: {sonar.swath_deg} must be below 170")
+        raise fail("swath_deg", sonar.swath_deg, "a swath below 170 deg")
+    if isinstance(opt, JacketOptions):
+        names = [s.strip() for s in opt.lines.split(",") if s.strip()]
+        bad = [n for n in names if n not in JACKET_LINES]
+        if not names or bad:
+            raise fail("lines", bad[0] if bad else opt.lines,
+                       f"survey lines from {', '.join(JACKET_LINES)}, comma-separated")
+        if opt.top < opt.seabed + 0.5:
+            raise fail("top", opt.top, f"a pile top at least 0.5 m above the seabed ({opt.seabed} m)")
+    if isinstance(opt, ReefFieldOptions):
+        kinds = [s.strip() for s in opt.groups.split(",") if s.strip()]
+        bad = [k for k in kinds if k not in BUILTIN_DESIGNS and k != "mixed"]
+        if not kinds or bad:
+            raise fail("groups", bad[0] if bad else opt.groups,
+                       f"reef kinds from {', '.join(BUILTIN_DESIGNS)}, mixed, comma-separated")
+        most = opt.per_group * len(kinds) // 2
+        if opt.close_pairs + opt.touching_pairs > most:
+            raise fail("touching_pairs" if opt.touching_pairs else "close_pairs",
+                       opt.touching_pairs or opt.close_pairs,
+                       f"close_pairs + touching_pairs at most {most} (half the {2 * most} reefs)")
 
 
 def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels: np.ndarray,

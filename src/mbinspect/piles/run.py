@@ -18,7 +18,7 @@ from .design import Design, apply_design
 from .elevate import elevated_points, intensity_threshold
 from .iterate import iterate
 from .options import PileOptions
-from .results import PileResult
+from .results import PileFit, PileResult, Spacing
 from .separate import separate_piles
 from .space import spacings
 from .split import segment_piles
@@ -101,7 +101,8 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     covs = {remap[k]: fits[k].cov for k in fits}
     pairs = spacings(piles, covs, design, opts.tolerance,
                      method="centre" if opts.method == "centre" else "intersection")
-    others, other_pairs = (), ()
+    others: tuple[PileFit, ...] = ()
+    other_pairs: tuple[Spacing, ...] = ()
     if opts.method == "both":
         others, alt_covs, piles = other_method_piles(piles, opts.radius)
         other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre")

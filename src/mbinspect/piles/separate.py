@@ -78,11 +78,11 @@ def separate_piles(points: np.ndarray, *, count: int | None = None, radius: floa
 
     Examples
     --------
-    >>> rng = np.random.default_rng(0)
-    >>> a = np.column_stack([rng.normal(0, 0.3, (200, 2)), np.zeros(200)])
-    >>> labels, _ = separate_piles(np.vstack([a, a + [0, 22, 0]]), count=2, radius=0.75)
-    >>> np.bincount(labels).tolist()
-    [200, 200]
+    >>> g = np.linspace(-0.5, 0.5, 15)
+    >>> a = np.column_stack([np.repeat(g, 15), np.tile(g, 15), np.zeros(225)])
+    >>> labels, _ = separate_piles(np.vstack([a + [0, 22, 0], a]), count=2, radius=0.75)
+    >>> np.bincount(labels).tolist(), int(labels[0])
+    ([225, 225], 1)
     """
     pts = np.asarray(points, np.float64)
     warnings: list[str] = []

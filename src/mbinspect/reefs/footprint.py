@@ -117,7 +117,7 @@ def label_parts(reef_mask: np.ndarray, *, cell: float, link: float
 
     Examples
     --------
-    >>> m = np.zeros((5, 12), bool); m[1:4, 1:4] = True; m[1:4, 5:8] = True; m[1:4, 10:12] = True
+    >>> m = np.zeros((5, 14), bool); m[1:4, 1:4] = True; m[1:4, 5:8] = True; m[1:4, 11:13] = True
     >>> parts, _ = label_parts(m, cell=0.1, link=0.1)
     >>> [len(p) for p in parts]
     [18, 6]

@@ -1,0 +1,59 @@
+"""Ctrl-C and SIGTERM for the command line: out within a second, nothing left behind.
+
+:func:`install` blocks SIGINT and SIGTERM in the main thread (and so in every thread and
+process it starts) and hands them to a watcher thread. On a signal the watcher asks the
+main thread to stop (a ``KeyboardInterrupt`` there unwinds the work, removing staging
+folders and ending reader workers); if the main thread is still busy in compiled code
+after :data:`GRACE` seconds, the watcher removes what is unfinished
+(:func:`mbinspect.outputs.discard_unfinished`), kills the workers and ends the process
+itself. The exit status is 130 for SIGINT and 143 for SIGTERM; a second signal meanwhile
+changes nothing. Reader workers ignore SIGINT and, on Linux, die with their parent
+however it dies (``mbinspect.io``).
+"""
+
+from __future__ import annotations
+
+import _thread
+import os
+import signal
+import threading
+
+from .outputs import discard_unfinished
+
+__all__ = ["install", "exit_status", "GRACE"]
+
+#: Seconds the main thread gets to unwind by itself before the process is ended.
+GRACE = 0.6
+
+_EXIT = {signal.SIGINT: 130, signal.SIGTERM: 143}
+_received: list[int] = []
+
+
+def exit_status() -> int:
+    """The exit status for the interrupt received: 143 after SIGTERM, else 130."""
+    return _EXIT.get(signal.Signals(_received[0]), 130) if _received else 130
+
+
+def install() -> None:
+    """Hand SIGINT and SIGTERM to a watcher thread (call once, from the main thread)."""
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    threading.Thread(target=_watch, args=(sigs,), name="mbinspect-signals", daemon=True).start()
+
+
+def _watch(sigs: set[signal.Signals]) -> None:
+    sig = signal.sigwait(sigs)
+    _received.append(int(sig))
+    main = threading.main_thread()
+    _thread.interrupt_main()
+    main.join(GRACE)
+    # the main thread is stuck in compiled code (or waiting on workers): end it here
+    try:
+        os.write(2, b"mbinspect: interrupted\n")
+        discard_unfinished()
+        import multiprocessing
+
+        for child in multiprocessing.active_children():
+            child.kill()
+    finally:
+        os._exit(exit_status())
