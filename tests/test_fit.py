@@ -58,9 +58,15 @@ def test_orthogonal_fit_is_unbiased_on_a_one_sided_arc():
     cyl, _ = fit_cylinder(pts, start, radius=None, z_ref=-16.0, loss="linear")
     assert np.hypot(*cyl.point[:2]) < 0.01
     assert cyl.radius == pytest.approx(0.75, abs=0.01)
-    # an algebraic (Kasa) circle fit on the same arc is pulled inwards
-    kasa = Circle.fit(pts, radius=None)
-    assert kasa is not None and abs(kasa.radius - 0.75) < 0.05
+    # an algebraic (Kasa) circle fit on the same arc is pulled inwards, by more than 4 cm
+    p = pts[:, :2]
+    sol, *_ = np.linalg.lstsq(np.column_stack([2 * p, np.ones(len(p))]), (p**2).sum(axis=1), rcond=None)
+    kasa_radius = float(np.sqrt(sol[2] + sol[:2] @ sol[:2]))
+    assert kasa_radius < 0.75 - 0.04
+    assert abs(cyl.radius - 0.75) < 0.25 * abs(kasa_radius - 0.75)
+    # the geometric circle fit agrees with the orthogonal cylinder fit
+    circle = Circle.fit(pts, radius=None)
+    assert circle is not None and abs(circle.radius - cyl.radius) < 0.005
 
 
 def _pinged_pile(rng, centre, radius=0.75, sigma_ping=0.01, sigma_point=0.03):

@@ -78,8 +78,13 @@ def test_segmentation_separates_top_and_side(jacket_small):
     assert info["window"][0] - 0.1 < pile["z"] < info["window"][1] + 0.1
     assert np.abs(pts[top, 2] - pile["z"]).max() < 0.15
     assert (pts[side, 2] < pile["z"] - 0.1).all()
-    paper_top, paper_side, _ = split_top_side(pts, radius=0.75, paper=True)
-    assert paper_top.sum() > 0 and (paper_top | paper_side).sum() <= len(pts)
+    # the paper's rule: top = exactly the window's points, side = every point below it
+    paper_top, paper_side, paper_info = split_top_side(pts, radius=0.75, paper=True)
+    lo, hi = paper_info["window"]
+    assert paper_top.sum() == paper_info["n_window"] > 50
+    np.testing.assert_array_equal(paper_top, (pts[:, 2] >= lo) & (pts[:, 2] <= hi))
+    np.testing.assert_array_equal(paper_side, pts[:, 2] < lo)
+    assert abs(np.median(pts[paper_top, 2]) - pile["z"]) < 0.05
 
 
 def test_count_larger_than_present_gives_results_for_the_others(jacket_small):
@@ -198,6 +203,21 @@ def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
             "side_coverage_deg", "rms", "sigma_xy", "flags"} <= set(d["piles"][0])
     page = (out / "report.html").read_text()
     assert "data:image/png;base64," in page and "http" not in page.replace("http-equiv", "")
+    # --method both: both methods' piles in the JSON, the CSV and the report
+    assert [p["method"] for p in d["other_piles"]] == ["centre"] * 4
+    assert {p["method"] for p in d["piles"]} == {"intersection"}
+    rows = (out / "piles.csv").read_text().splitlines()
+    assert len(rows) == 9 and sum(r.split(",")[7] == "centre" for r in rows[1:]) == 4
+    assert "Piles by the centre method" in page
+    for name in ("piles.csv", "spacings.csv"):
+        assert b"\r\n" not in (out / name).read_bytes()
+    # parameters: the options, the input file and the command line
+    params = d["parameters"]
+    assert params["radius"] == 0.75 and params["method"] == "both" and params["count"] == 4
+    assert params["input"]["file"] == str(src) and len(params["input"]["sha256"]) == 64
+    assert params["input"]["size"] == src.stat().st_size and params["design"]["file"] == str(design)
+    assert params["command_line"][:3] == ["mbinspect", "piles", str(src)]
+    assert params["software"].startswith("mbinspect ")
     assert main(["piles", str(src), "--radius", "0.75", "--design", str(tmp_path / "nope.csv"),
                  "--out", str(tmp_path / "o2")]) == 2
     assert "nope.csv: no such file" in capsys.readouterr().err
@@ -206,3 +226,21 @@ def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
 def test_design_helper_spacing():
     d = Design(positions={1: (0.0, 0.0), 2: (3.0, 4.0)})
     assert d.spacing(1, 2) == 5.0 and d.spacing(1, 3) is None
+
+
+def test_polygon_crop_keeps_the_piles_inside(jacket_small, tmp_path, capsys):
+    design = {d["id"]: (d["x"], d["y"]) for d in jacket_small.truth["design"]}
+    (x1, y1), (x2, y2), (x3, y3) = design[1], design[2], design[3]
+    # a triangle around piles 1 and 2 (the southern row) only
+    tri = [(x1 - 5, y1 - 5), (x2 + 5, y2 - 5), ((x1 + x2) / 2, (y1 + y3) / 2)]
+    result = locate_piles(jacket_small.cloud, radius=0.75, crop=tri)
+    assert len(result.piles) == 2
+    got = sorted((round(p.x), round(p.y)) for p in result.piles)
+    assert got == sorted((round(x), round(y)) for x, y in (design[1], design[2]))
+    assert result.parameters["crop"] == [list(v) for v in tri]
+    src = tmp_path / "s.npz"
+    write(jacket_small.cloud, src)
+    flat = ",".join(f"{v:.3f}" for xy in tri for v in xy)
+    assert main(["piles", str(src), "--radius", "0.75", "--crop", flat, "--out", str(tmp_path / "o"),
+                 "--no-figures"]) in (0, 3)
+    assert len(json.loads((tmp_path / "o" / "piles.json").read_text())["piles"]) == 2

@@ -117,7 +117,9 @@ def test_reef_points_keep_feet_and_leave_the_seabed(reef_small):
     seabed = sim.labels == LABELS["seabed"]
     assert mask[reef].mean() > 0.85
     assert mask[seabed].mean() < 0.002
-    assert info["method"] in ("plane", "grid") and info["residual_rms"] < 0.08
+    # the field's 0.3 deg slope over 150 m departs from one plane by more than 8 cm
+    assert info["method"] == "grid" and info["plane"]["deviation_p99"] > 0.08
+    assert info["residual_rms"] < 0.05
 
 
 def test_sand_waves_use_the_local_surface_and_rough_shore_is_excluded():

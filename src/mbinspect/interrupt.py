@@ -18,8 +18,6 @@ import os
 import signal
 import threading
 
-from .outputs import discard_unfinished
-
 __all__ = ["install", "exit_status", "GRACE"]
 
 #: Seconds the main thread gets to unwind by itself before the process is ended.
@@ -35,7 +33,9 @@ def exit_status() -> int:
 
 
 def install() -> None:
-    """Hand SIGINT and SIGTERM to a watcher thread (call once, from the main thread)."""
+    """Hand SIGINT and SIGTERM to a watcher thread (call once, from the main thread, before
+    any library that starts threads, numpy's BLAS among them, is imported: a thread started
+    earlier does not block them and would take the signal)."""
     sigs = {signal.SIGINT, signal.SIGTERM}
     signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
     threading.Thread(target=_watch, args=(sigs,), name="mbinspect-signals", daemon=True).start()
@@ -49,6 +49,8 @@ def _watch(sigs: set[signal.Signals]) -> None:
     main.join(GRACE)
     # the main thread is stuck in compiled code (or waiting on workers): end it here
     try:
+        from .outputs import discard_unfinished
+
         os.write(2, b"mbinspect: interrupted\n")
         discard_unfinished()
         import multiprocessing
