@@ -230,7 +230,7 @@ def test_design_helper_spacing():
 
 def test_polygon_crop_keeps_the_piles_inside(jacket_small, tmp_path, capsys):
     design = {d["id"]: (d["x"], d["y"]) for d in jacket_small.truth["design"]}
-    (x1, y1), (x2, y2), (x3, y3) = design[1], design[2], design[3]
+    (x1, y1), (x2, y2), y3 = design[1], design[2], design[3][1]
     # a triangle around piles 1 and 2 (the southern row) only
     tri = [(x1 - 5, y1 - 5), (x2 + 5, y2 - 5), ((x1 + x2) / 2, (y1 + y3) / 2)]
     result = locate_piles(jacket_small.cloud, radius=0.75, crop=tri)
