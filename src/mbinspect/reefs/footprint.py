@@ -25,9 +25,54 @@ class Raster:
 
 
 def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float, reach: float,
-                          own: float, bridge: float, height: np.ndarray | None = None,
-                          wall: float = 0.0) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Raster cells near reef points, each labelled by its nearest sounding."""
+                         own: float, bridge: float, height: np.ndarray | None = None,
+                         wall: float = 0.0, seed: int = 0) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The footprint raster: cells near reef points, each labelled by its nearest sounding.
+
+    See :func:`~mbinspect.reefs.split_reefs` for what each rule is for.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    is_reef : ndarray of bool, shape (N,)
+        The reef soundings.
+    cell : float
+        Raster cell (m).
+    reach : float
+        Only cells within this distance (m) of a reef sounding are labelled.
+    own, bridge : float
+        In sounding spacings: a reef cell lies within ``own`` of a reef sounding; gaps
+        inside a reef are closed over ``bridge``.
+    height : ndarray (N,), optional
+        Heights above the seabed, for side-wall soundings.
+    wall : float
+        A reef sounding below ``wall`` times the highest reef sounding within 0.4 m is on a
+        side wall (0: no wall rule).
+    seed : int
+        Seed of the sample on which the typical sounding spacing is measured.
+
+    Returns
+    -------
+    reef : ndarray of bool, shape (ny, nx)
+        The footprint raster.
+    nearest : ndarray of int, shape (ny, nx)
+        Index of each cell's nearest sounding (-1: none within ``reach``).
+    x0, y0 : float
+        The raster's corner (m).
+
+    Examples
+    --------
+    >>> g = np.arange(0.0, 10.0, 0.25)
+    >>> xy = np.column_stack([np.repeat(g, len(g)), np.tile(g, len(g))])
+    >>> z = np.where((np.abs(xy[:, 0] - 5) < 1) & (np.abs(xy[:, 1] - 5) < 1), -16.0, -17.0)
+    >>> pts = np.column_stack([xy, z])
+    >>> reef, nearest, x0, y0 = nearest_label_raster(pts, z > -16.5, cell=0.1, reach=0.6, own=1.5,
+    ...                                              bridge=3.5)
+    >>> # 7 x 7 reef soundings 0.25 m apart: a 1.75 m square halfway to the seabed soundings
+    >>> bool(abs(float(reef.sum()) * 0.01 - 1.75**2) < 0.2)
+    True
+    """
     rp = points[is_reef, :2]
     lo = rp.min(axis=0) - reach
     hi = rp.max(axis=0) + reach
@@ -49,7 +94,7 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     tree = cKDTree(points[idx, :2] - lo, balanced_tree=False, compact_nodes=False)
     # own and bridge are in units of the soundings' typical spacing here (median distance
     # to the nearest other sounding, from a seeded sample)
-    sample = idx[np.random.default_rng(0).permutation(len(idx))[:20_000]]
+    sample = idx[np.random.default_rng(seed).permutation(len(idx))[:20_000]]
     dn, _ = tree.query(points[sample, :2] - lo, k=2)
     spacing = float(np.median(dn[:, 1])) if len(sample) > 1 else cell
     own, bridge = own * spacing, bridge * spacing

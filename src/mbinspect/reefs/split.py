@@ -161,8 +161,8 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
         empty = Raster(0.0, 0.0, cell, np.zeros((1, 1), np.int64), np.full((1, 1), -1))
         return [], [], empty, reef_area or math.nan
     reef_mask, nearest, x0, y0 = nearest_label_raster(pts, is_reef, cell=cell, reach=reach,
-                                                       own=own, bridge=bridge, height=height,
-                                                       wall=wall)
+                                                      own=own, bridge=bridge, height=height,
+                                                      wall=wall, seed=seed)
     parts, (ny, nx) = label_parts(reef_mask, cell=cell, link=link)
     areas = np.array([len(p) for p in parts]) * cell * cell
     big = areas >= min_area
