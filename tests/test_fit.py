@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -146,3 +147,21 @@ def test_trial_count_formula():
     assert ransac_trials(0.5, 3, 0.99) == 35
     assert ransac_trials(1.0, 3) == 1
     assert ransac_trials(0.9, 3, 0.99) < ransac_trials(0.5, 3, 0.99)
+
+
+def test_models_compare_by_value_and_meet_the_protocol():
+    from mbinspect.fit import GeometricModel
+
+    up = np.array([0.0, 0.0, 1.0])
+    a, b = Plane(np.zeros(3), up.copy()), Plane(np.zeros(3), up.copy())
+    assert a == b and hash(a) == hash(b) and len({a, b}) == 1
+    assert a != Plane(np.array([0.0, 0.0, 1.0]), up)
+    c1, c2 = Cylinder(np.zeros(3), up, 0.75), Cylinder(np.zeros(3), up, 0.76)
+    assert c1 != c2 and c1 == Cylinder(np.zeros(3), up.copy(), 0.75)
+    assert Circle(np.zeros(2), 1.0) != Cylinder(np.zeros(3), up, 1.0)
+    for model in (a, c1, Circle(np.array([1.0, 2.0]), 3.0)):
+        assert isinstance(model, GeometricModel)
+        json.dumps(model.to_dict())
+    pts = np.array([[1.75, 0.0, -3.0], [0.0, 0.5, 2.0]])
+    np.testing.assert_allclose(c1.residuals(pts), [1.0, -0.25])
+    np.testing.assert_allclose(a.residuals(pts), [-3.0, 2.0])

@@ -65,7 +65,18 @@ def _number(value: Any) -> bool:
 
 
 def finite(name: str, value: Any) -> float:
-    """``value`` as a float when it is a finite number; else a :class:`ParameterError`."""
+    """``value`` as a float when it is a finite number; else a :class:`ParameterError`.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    value : float
+
+    Returns
+    -------
+    float
+    """
     if not (_number(value) and math.isfinite(float(value))):
         raise fail(name, value, "a finite number")
     return float(value)
@@ -90,14 +101,43 @@ def positive(name: str, value: Any) -> float:
 
 
 def non_negative(name: str, value: Any) -> float:
-    """``value`` as a float when it is a finite number at or above zero."""
+    """``value`` as a float when it is a finite number at or above zero.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    value : float
+
+    Returns
+    -------
+    float
+    """
     if not (_number(value) and math.isfinite(float(value)) and value >= 0):
         raise fail(name, value, "a finite number >= 0")
     return float(value)
 
 
 def integer(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
-    """``value`` when it is a whole number within ``[minimum, maximum]``."""
+    """``value`` when it is a whole number within ``[minimum, maximum]``.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    value : int
+    minimum, maximum : int, optional
+        Bounds, inclusive.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> integer("count", 4, minimum=1)
+    4
+    """
     if not isinstance(value, (int, np.integer)) or isinstance(value, bool):
         raise fail(name, value, "a whole number")
     if minimum is not None and value < minimum or maximum is not None and value > maximum:
@@ -112,6 +152,22 @@ def within(name: str, value: Any, lo: float, hi: float, *, open_lo: bool = False
     """``value`` when it is a finite number between ``lo`` and ``hi``.
 
     ``open_lo`` / ``open_hi`` exclude the bound itself.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    value : float
+    lo, hi : float
+        The bounds, in the option's unit.
+    open_lo, open_hi : bool
+        Exclude the bound itself.
+    unit : str
+        Unit named in the message.
+
+    Returns
+    -------
+    float
     """
     ok = _number(value) and math.isfinite(float(value))
     if ok:
@@ -125,7 +181,19 @@ def within(name: str, value: Any, lo: float, hi: float, *, open_lo: bool = False
 
 
 def one_of(name: str, value: Any, choices: Collection[str]) -> str:
-    """``value`` when it is one of ``choices``."""
+    """``value`` when it is one of ``choices``.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    value : str
+    choices : collection of str
+
+    Returns
+    -------
+    str
+    """
     if value not in choices:
         raise fail(name, value, f"one of {', '.join(map(str, choices))}")
     return str(value)
@@ -174,5 +242,16 @@ def check_points(points: Any, *, minimum: int = 1, name: str = "points") -> np.n
 
 
 def numbers(name: str, values: Sequence[Any]) -> tuple[float, ...]:
-    """Every value of ``values`` as a finite float."""
+    """Every value of ``values`` as a finite float.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    values : sequence of float
+
+    Returns
+    -------
+    tuple of float
+    """
     return tuple(finite(name, v) for v in values)

@@ -527,7 +527,25 @@ def _one_line_warnings() -> Iterator[None]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit status."""
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit status.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments, without the program name.
+
+    Returns
+    -------
+    int
+        0 done; 2 a user's mistake; 3 results written but a pile flagged or a spacing
+        failed; 1 the output could not be written; 130 / 143 interrupted; 141 the reader of
+        the output went away.
+
+    Examples
+    --------
+    >>> main(["piles", "missing.xyz", "--radius", "-1"])
+    2
+    """
     from .interrupt import exit_status
 
     argv = list(sys.argv[1:] if argv is None else argv)

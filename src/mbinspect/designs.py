@@ -253,6 +253,21 @@ def read_design(path: str | Path) -> ReefDesign:
     "width": 3, "height": 3, "bearing_deg": 0}, ...]}``: box base centres relative to the
     reef's centre, lengths along the box bearing (degrees clockwise from north), metres.
     ``symmetry`` (the order of plan rotational symmetry) defaults to 1.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    ReefDesign
+
+    Raises
+    ------
+    FileAccessError
+        The file cannot be read.
+    InputError
+        Not a design file; the message says what is wrong.
     """
     p = Path(path)
     try:
@@ -281,7 +296,28 @@ def read_design(path: str | Path) -> ReefDesign:
 
 
 def parse_designs(spec: str | Sequence[str | ReefDesign] | None) -> tuple[ReefDesign, ...]:
-    """Designs from ``"cross2,cross1"``-style names of built-ins and/or JSON design files."""
+    """Designs from ``"cross2,cross1"``-style names of built-ins and/or JSON design files.
+
+    Parameters
+    ----------
+    spec : str or sequence of (str or ReefDesign), optional
+        Names and JSON files, comma-separated in a string.
+
+    Returns
+    -------
+    tuple of ReefDesign
+        Empty for None or an empty string.
+
+    Raises
+    ------
+    ParameterError
+        A name that is neither built in nor a ``.json`` file (``option="design"``).
+
+    Examples
+    --------
+    >>> [d.name for d in parse_designs("cross2, hollow")]
+    ['cross2', 'hollow']
+    """
     if spec is None:
         return ()
     items = [s.strip() for s in spec.split(",")] if isinstance(spec, str) else list(spec)

@@ -87,7 +87,30 @@ class Evaluation:
 
 def match_points(detected: np.ndarray, reference: np.ndarray, *, tolerance: float = 1.5,
                  reference_ids: tuple[Any, ...] = ()) -> Evaluation:
-    """Match detected positions (D, 2) to reference positions (R, 2) one to one."""
+    """Match detected positions (D, 2) to reference positions (R, 2) one to one.
+
+    Parameters
+    ----------
+    detected : ndarray, shape (D, 2)
+        Detected positions (m).
+    reference : ndarray, shape (R, 2)
+        Reference positions (m).
+    tolerance : float
+        Largest distance of a match (m).
+    reference_ids : sequence, optional
+        The references' ids (default 1..R).
+
+    Returns
+    -------
+    Evaluation
+        TP, FP, FN, the matches and the unmatched on each side.
+
+    Examples
+    --------
+    >>> ev = match_points(np.array([[0.0, 0.0], [9.0, 9.0]]), np.array([[0.2, 0.1]]))
+    >>> ev.tp, ev.fp, ev.fn
+    (1, 1, 0)
+    """
     if not tolerance > 0:
         raise ParameterError(f"--tolerance: {tolerance} must be positive")
     det = np.asarray(detected, np.float64).reshape(-1, 2)
@@ -114,6 +137,22 @@ def read_reference(path: str | Path) -> tuple[np.ndarray, tuple[Any, ...]]:
 
     Returns the positions (R, 2) and the ids (1-based row numbers when there is no id
     column). A bad row raises :class:`InputError` naming the line and column.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    positions : ndarray, shape (R, 2)
+    ids : tuple
+
+    Raises
+    ------
+    FileAccessError
+        No such file.
+    InputError
+        A bad row, naming the line and column.
     """
     p = Path(path)
     if not p.exists():

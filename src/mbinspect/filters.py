@@ -136,6 +136,16 @@ def statistical_outlier(points: np.ndarray, *, k: int = 8, std_ratio: float = 2.
     A point is noise when its mean k-NN distance exceeds the global mean by more than
     ``std_ratio`` standard deviations (as PCL's and Open3D's statistical filters do).
 
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    k : int
+        Neighbours.
+    std_ratio : float
+        Standard deviations above the mean that make noise.
+    workers : int
+        Threads of the neighbour search.
+
     Returns
     -------
     keep : ndarray of bool, shape (N,)

@@ -1,8 +1,10 @@
 """Geometric models and one robust estimation loop (RANSAC / MSAC) that serves them all.
 
 Each model is a small immutable class with a least-squares fit from points and
-``residuals(points)`` as true orthogonal distances (signed where a side is defined).
-A degenerate sample gives ``None`` ("no model"), never an exception.
+``residuals(points)`` as true orthogonal distances (signed where a side is defined); each
+meets the :class:`GeometricModel` protocol. A degenerate sample gives ``None`` ("no
+model"), never an exception. Two models are equal when their parameters are equal
+(arrays compared element by element), so models can be compared and hashed.
 
 Examples
 --------
@@ -22,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -30,6 +32,7 @@ from scipy.optimize import least_squares
 from .errors import ParameterError
 
 __all__ = [
+    "GeometricModel",
     "Plane",
     "Cylinder",
     "Circle",
@@ -49,6 +52,24 @@ def ransac_trials(inlier_ratio: float, sample_size: int, confidence: float = 0.9
 
     ``N = ln(1 - q) / ln(1 - P**K)`` (the reef paper's eq. 4) with P the inlier ratio
     and K the sample size.
+
+    Parameters
+    ----------
+    inlier_ratio : float
+        P, 0 to 1.
+    sample_size : int
+        K.
+    confidence : float
+        q, 0 to 1.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> ransac_trials(0.5, 3, 0.99)
+    35
     """
     p = min(max(inlier_ratio, 1e-9), 1.0)
     if p >= 1.0:
@@ -62,8 +83,37 @@ def ransac_trials(inlier_ratio: float, sample_size: int, confidence: float = 0.9
 # ---------------------------------------------------------------------------- models
 
 
-@dataclass(frozen=True)
-class Plane:
+@runtime_checkable
+class GeometricModel(Protocol):
+    """What every geometric model offers: orthogonal residuals and a JSON summary."""
+
+    def residuals(self, points: np.ndarray) -> np.ndarray:
+        """Orthogonal distance (m) of each point ``(N, 3)`` to the model, shape (N,)."""
+        ...
+
+    def to_dict(self) -> dict[str, Any]:
+        """The model's parameters, JSON-ready."""
+        ...
+
+
+class _ArrayFields:
+    """Equality and hashing by value for frozen dataclasses with ndarray fields."""
+
+    def _key(self) -> tuple[Any, ...]:
+        return tuple(np.asarray(v).tobytes() if isinstance(v, np.ndarray) else v
+                     for v in (getattr(self, f) for f in self.__dataclass_fields__))  # type: ignore[attr-defined]
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__, self._key()))
+
+
+@dataclass(frozen=True, eq=False)
+class Plane(_ArrayFields):
     """A plane through ``point`` with unit ``normal`` (pointing up, n_z >= 0)."""
 
     point: np.ndarray
@@ -106,15 +156,17 @@ class Plane:
 
     @property
     def slope_deg(self) -> float:
+        """Angle of the plane from horizontal (deg)."""
         return math.degrees(math.acos(min(1.0, abs(float(self.normal[2])))))
 
     def to_dict(self) -> dict[str, Any]:
+        """A point on the plane, its unit normal and its slope (deg)."""
         return {"point": self.point.tolist(), "normal": self.normal.tolist(),
                 "slope_deg": self.slope_deg}
 
 
-@dataclass(frozen=True)
-class Circle:
+@dataclass(frozen=True, eq=False)
+class Circle(_ArrayFields):
     """A circle in the plane: centre (2,) and radius."""
 
     centre: np.ndarray
@@ -138,12 +190,17 @@ class Circle:
         return cls(res.x, float(radius))
 
     def residuals(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance (m) of each point's plan position to the circle (positive outside)."""
         p = np.asarray(points, np.float64)[:, :2]
         return np.hypot(*(p - self.centre).T) - self.radius
 
+    def to_dict(self) -> dict[str, Any]:
+        """Centre (x, y) and radius (m)."""
+        return {"centre": self.centre.tolist(), "radius": float(self.radius)}
 
-@dataclass(frozen=True)
-class Cylinder:
+
+@dataclass(frozen=True, eq=False)
+class Cylinder(_ArrayFields):
     """An infinite cylinder: a point on its axis, the unit axis (pointing up), the radius."""
 
     point: np.ndarray
@@ -172,10 +229,17 @@ class Cylinder:
 
     @property
     def tilt_deg(self) -> float:
+        """Angle of the axis from vertical (deg)."""
         return math.degrees(math.acos(min(1.0, abs(float(self.axis[2])))))
+
+    def to_dict(self) -> dict[str, Any]:
+        """A point on the axis, the unit axis, the radius (m), the tilt and its bearing (deg)."""
+        return {"point": self.point.tolist(), "axis": self.axis.tolist(), "radius": float(self.radius),
+                "tilt_deg": self.tilt_deg, "tilt_bearing_deg": self.tilt_bearing_deg}
 
     @property
     def tilt_bearing_deg(self) -> float:
+        """Bearing toward which the axis leans (deg clockwise from grid north)."""
         a = self.axis if self.axis[2] >= 0 else -self.axis
         return math.degrees(math.atan2(float(a[0]), float(a[1]))) % 360.0
 
@@ -189,6 +253,18 @@ def cylinder_from_normals(sample: np.ndarray, *, radius: float,
     each point moved by ``radius`` against its normal, and also from the two circles of
     that radius through both projected points (normals from a few noisy soundings are
     rough, so both are offered). Candidates tilted more than ``max_tilt_deg`` are dropped.
+
+    Parameters
+    ----------
+    sample : ndarray, shape (2, 6)
+    radius : float
+        Prior radius (m).
+    max_tilt_deg : float
+        Hypotheses tilted more are refused (deg).
+
+    Returns
+    -------
+    list of Cylinder
     """
     p, n = sample[:, :3], sample[:, 3:6]
     axis = np.cross(n[0], n[1])
@@ -459,6 +535,25 @@ def cylinder_msac(points: np.ndarray, normals: np.ndarray, *, radius: float, thr
     (kept while it scores better), so a rough proposal from noisy normals still ends on
     the right model. With ``free_radius`` the refinement also fits the radius, so a prior
     a few centimetres off (design tolerance, marine growth) is corrected by the data.
+
+    Parameters
+    ----------
+    points, normals : ndarray, shape (N, 3)
+        Side points (m) and their unit normals.
+    radius : float
+        Prior radius (m).
+    threshold : float
+        Inlier distance (m).
+    max_tilt_deg : float
+        Largest tilt of a hypothesis (deg).
+    seed : int
+    max_trials : int
+    free_radius : bool
+        Let the local optimisation fit the radius.
+
+    Returns
+    -------
+    RobustResult
     """
     data = np.hstack([np.asarray(points, np.float64)[:, :3], np.asarray(normals, np.float64)])
 

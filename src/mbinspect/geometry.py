@@ -40,7 +40,22 @@ __all__ = [
 
 
 def bearing_to_vector(bearing_deg: float) -> np.ndarray:
-    """Unit vector (east, north) of a bearing in degrees clockwise from north."""
+    """Unit vector (east, north) of a bearing in degrees clockwise from north.
+
+    Parameters
+    ----------
+    bearing_deg : float
+        Degrees clockwise from grid north.
+
+    Returns
+    -------
+    ndarray, shape (2,)
+
+    Examples
+    --------
+    >>> np.round(bearing_to_vector(90.0), 6).tolist()
+    [1.0, 0.0]
+    """
     b = math.radians(bearing_deg)
     return np.array([math.sin(b), math.cos(b)])
 
@@ -49,6 +64,18 @@ def vector_to_bearing(v: np.ndarray, *, axial: bool = False) -> float:
     """Bearing in degrees clockwise from north of vector ``(east, north)``.
 
     With ``axial=True`` the result is folded into [0, 180) (an axis has no sense).
+
+    Parameters
+    ----------
+    v : ndarray, shape (2,)
+        (east, north).
+    axial : bool
+        Fold into [0, 180).
+
+    Returns
+    -------
+    float
+        Degrees clockwise from grid north, in [0, 360) or [0, 180).
     """
     b = math.degrees(math.atan2(float(v[0]), float(v[1]))) % 360.0
     return b % 180.0 if axial else b
@@ -56,7 +83,16 @@ def vector_to_bearing(v: np.ndarray, *, axial: bool = False) -> float:
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Convex hull of 2-D points, counter-clockwise, shape (K, 2) (Qhull; fewer than three
-    distinct or collinear points are returned as they are)."""
+    distinct or collinear points are returned as they are).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+
+    Returns
+    -------
+    ndarray, shape (K, 2)
+    """
     from scipy.spatial import ConvexHull, QhullError
 
     pts = np.asarray(points, dtype=np.float64)[:, :2]
@@ -72,7 +108,18 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
 
 
 def polygon_area(poly: np.ndarray) -> float:
-    """Area of a simple polygon (shoelace); positive for counter-clockwise."""
+    """Area of a simple polygon (shoelace); positive for counter-clockwise.
+
+    Parameters
+    ----------
+    poly : ndarray, shape (K, 2)
+        Vertices in order (m).
+
+    Returns
+    -------
+    float
+        Signed area (m²).
+    """
     p = np.asarray(poly, dtype=np.float64)
     if len(p) < 3:
         return 0.0
@@ -81,7 +128,17 @@ def polygon_area(poly: np.ndarray) -> float:
 
 
 def polygon_centroid(poly: np.ndarray) -> np.ndarray:
-    """Area centroid of a simple polygon, shape (2,)."""
+    """Area centroid of a simple polygon, shape (2,).
+
+    Parameters
+    ----------
+    poly : ndarray, shape (K, 2)
+        Vertices in order (m).
+
+    Returns
+    -------
+    ndarray, shape (2,)
+    """
     p = np.asarray(poly, dtype=np.float64)
     a = polygon_area(p)
     if abs(a) < 1e-12:
@@ -110,7 +167,21 @@ class Rectangle:
 def rectangle_corners(
     cx: float, cy: float, length: float, width: float, bearing_deg: float
 ) -> np.ndarray:
-    """The four corners (counter-clockwise) of an oriented rectangle, shape (4, 2)."""
+    """The four corners (counter-clockwise) of an oriented rectangle, shape (4, 2).
+
+    Parameters
+    ----------
+    cx, cy : float
+        Centre (m).
+    length, width : float
+        Sides along and across the bearing (m).
+    bearing_deg : float
+        Direction of the length (deg clockwise from grid north).
+
+    Returns
+    -------
+    ndarray, shape (4, 2)
+    """
     u = bearing_to_vector(bearing_deg) * (length / 2.0)
     w = np.array([u[1], -u[0]]) * (width / max(length, 1e-300))
     c = np.array([cx, cy])
@@ -121,7 +192,17 @@ def rectangle_corners(
 
 
 def min_area_rectangle(points: np.ndarray) -> Rectangle:
-    """Minimum-area enclosing rectangle of 2-D points (rotating calipers on the hull)."""
+    """Minimum-area enclosing rectangle of 2-D points (rotating calipers on the hull).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+
+    Returns
+    -------
+    Rectangle
+        Centre, length >= width (m) and the bearing of the length (deg, axial).
+    """
     hull = convex_hull(points)
     if len(hull) < 3:
         pts = np.asarray(points, dtype=np.float64)[:, :2]
@@ -175,7 +256,18 @@ def _convex_overlap(p: np.ndarray, q: np.ndarray) -> bool:
 
 
 def polygon_distance(p: np.ndarray, q: np.ndarray) -> float:
-    """Smallest distance between two convex polygons; 0 when they touch or overlap."""
+    """Smallest distance between two convex polygons; 0 when they touch or overlap.
+
+    Parameters
+    ----------
+    p, q : ndarray, shape (K, 2)
+        Convex polygons (m).
+
+    Returns
+    -------
+    float
+        Distance (m).
+    """
     p = np.asarray(p, dtype=np.float64)
     q = np.asarray(q, dtype=np.float64)
     if _convex_overlap(p, q):
@@ -186,7 +278,17 @@ def polygon_distance(p: np.ndarray, q: np.ndarray) -> float:
 
 
 def points_in_polygon(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Boolean mask of the 2-D points inside a simple polygon (even-odd rule)."""
+    """Boolean mask of the 2-D points inside a simple polygon (even-odd rule).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2 or more)
+    poly : ndarray, shape (K, 2)
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
     pts = np.asarray(points, dtype=np.float64)[:, :2]
     poly = np.asarray(poly, dtype=np.float64)
     x, y = pts[:, 0], pts[:, 1]

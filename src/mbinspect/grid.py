@@ -17,6 +17,22 @@ def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[n
 
     Column by column: several times faster than broadcasting over an (N, 2) block.
 
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2 or more)
+        Plan coordinates in the first two columns (m).
+    x0, y0 : float
+        The grid's corner (m).
+    cell : float
+        Cell size (m).
+
+    Returns
+    -------
+    i, j : ndarray of int, shape (N,)
+        Column (east) and row (north) of each point; negative or past the grid outside it.
+
+    Examples
+    --------
     >>> i, j = cell_index(np.array([[0.5, 2.5, 0.0], [-0.5, 0.0, 0.0]]), 0.0, 0.0, 1.0)
     >>> i.tolist(), j.tolist()
     ([0, -1], [2, 0])
@@ -30,6 +46,18 @@ def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """``(key, z)`` sorted by cell, then by z, with z to the millimetre.
 
     Both are packed into one integer and sorted by value (much faster than an argsort).
+
+    Parameters
+    ----------
+    key : ndarray of int, shape (N,)
+        Cell number of each sounding (0 or more).
+    z : ndarray, shape (N,)
+        Elevations (m).
+
+    Returns
+    -------
+    keys, z : ndarray, shape (N,)
+        Sorted by cell, then by z (m, to the millimetre).
     """
     z0 = float(z.min())
     zq = np.round((z - z0) * 1000.0).astype(np.int64)
@@ -40,7 +68,22 @@ def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def sorted_percentile(ks: np.ndarray, zs: np.ndarray, q: float, size: int) -> np.ndarray:
-    """Per-cell ``q`` percentile of z for arrays already sorted by (cell, z); NaN if empty."""
+    """Per-cell ``q`` percentile of z for arrays already sorted by (cell, z); NaN if empty.
+
+    Parameters
+    ----------
+    ks, zs : ndarray, shape (N,)
+        Cell numbers and elevations (m) sorted by cell, then z (:func:`sorted_cells`).
+    q : float
+        Percentile, 0 to 100.
+    size : int
+        Number of cells.
+
+    Returns
+    -------
+    ndarray, shape (size,)
+        The percentile of each cell (m); NaN where a cell holds nothing.
+    """
     out = np.full(size, np.nan)
     if len(ks) == 0:
         return out
@@ -51,20 +94,76 @@ def sorted_percentile(ks: np.ndarray, zs: np.ndarray, q: float, size: int) -> np
 
 
 def cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.ndarray:
-    """Per-cell ``q`` percentile of z (cells numbered 0..size-1); NaN where a cell is empty."""
+    """Per-cell ``q`` percentile of z (cells numbered 0..size-1); NaN where a cell is empty.
+
+    Parameters
+    ----------
+    key : ndarray of int, shape (N,)
+        Cell number of each sounding.
+    z : ndarray, shape (N,)
+        Elevations (m).
+    q : float
+        Percentile, 0 to 100.
+    size : int
+        Number of cells.
+
+    Returns
+    -------
+    ndarray, shape (size,)
+
+    Examples
+    --------
+    >>> cell_percentile(np.array([0, 0, 0, 2]), np.array([-3.0, -1.0, -2.0, -5.0]), 50.0, 3).tolist()
+    [-2.0, nan, -5.0]
+    """
     if len(key) == 0:
         return np.full(size, np.nan)
     return sorted_percentile(*sorted_cells(key, z), q, size)
 
 
 def grow(mask: np.ndarray, r: int) -> np.ndarray:
-    """Dilation by a (2r+1)-cell square, as two 1-D passes."""
+    """Dilation by a (2r+1)-cell square, as two 1-D passes.
+
+    Parameters
+    ----------
+    mask : ndarray of bool, shape (ny, nx)
+    r : int
+        Cells added on every side.
+
+    Returns
+    -------
+    ndarray of bool, shape (ny, nx)
+
+    Examples
+    --------
+    >>> m = np.zeros((5, 5), bool); m[2, 2] = True
+    >>> int(grow(m, 1).sum())
+    9
+    """
     m = ndimage.maximum_filter1d(mask.view(np.uint8), 2 * r + 1, axis=0, mode="constant")
     return ndimage.maximum_filter1d(m, 2 * r + 1, axis=1, mode="constant").view(bool)
 
 
 def coverage(points: np.ndarray, cell: float = 1.0) -> float:
-    """Share of the 1 m cells of the points' bounding box that hold a sounding."""
+    """Share of the 1 m cells of the points' bounding box that hold a sounding.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    cell : float
+        Cell size (m).
+
+    Returns
+    -------
+    float
+        0 to 1.
+
+    Examples
+    --------
+    >>> coverage(np.array([[0.5, 0.5, 0.0], [2.5, 2.5, 0.0]]))
+    0.2222222222222222
+    """
     i, j = cell_index(points, float(points[:, 0].min()), float(points[:, 1].min()), cell)
     nx, ny = int(i.max()) + 1, int(j.max()) + 1
     seen = np.zeros(nx * ny, dtype=bool)

@@ -166,7 +166,31 @@ class PointCloud:
 
 
 def format_from_path(path: str | os.PathLike[str], format: str | None = None) -> str:
-    """The format name for ``path`` (or the explicit ``format``)."""
+    """The format name for ``path`` (or the explicit ``format``).
+
+    Parameters
+    ----------
+    path : path-like
+    format : str, optional
+        An explicit format name or alias (``laz`` is read by the LAS reader).
+
+    Returns
+    -------
+    str
+        ``xyz``, ``las``, ``ply`` or ``npz``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``format`` (``option="format"``).
+    InputError
+        An extension that names no format.
+
+    Examples
+    --------
+    >>> format_from_path("survey.LAZ"), format_from_path("a.dat", "csv")
+    ('las', 'xyz')
+    """
     if format is not None:
         fmt = FORMAT_ALIASES.get(format.lower(), format.lower())
         if fmt not in FORMATS:
@@ -190,6 +214,26 @@ def parse_columns(spec: str | Sequence[str]) -> list[str | None]:
 
     ``-`` (or ``skip``) skips a column. Names are the canonical fields or any alias
     (``easting``, ``backscatter`` ...); other names are kept as extra fields.
+
+    Parameters
+    ----------
+    spec : str or sequence of str
+        Comma-separated names, one per column.
+
+    Returns
+    -------
+    list of str or None
+        The field of each column; None for a skipped one.
+
+    Raises
+    ------
+    ParameterError
+        Not exactly one x, y and z, or a name twice (``option="columns"``).
+
+    Examples
+    --------
+    >>> parse_columns("easting,northing,-,depth")
+    ['x', 'y', None, 'z']
     """
     items = spec.split(",") if isinstance(spec, str) else list(spec)
     out: list[str | None] = []

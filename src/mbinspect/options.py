@@ -201,12 +201,35 @@ def _flag(f: dataclasses.Field[Any], spec: OptionSpec) -> str:
 
 
 def flag_names(cls: type[Options]) -> dict[str, str]:
-    """Option name -> command-line flag (``max_slope_deg`` -> ``--max-slope``)."""
+    """Option name -> command-line flag (``max_slope_deg`` -> ``--max-slope``).
+
+    Parameters
+    ----------
+    cls : type
+        An options class.
+
+    Returns
+    -------
+    dict
+    """
     return {f.name: _flag(f, spec) for f, spec in cls.specs() if spec.cli}
 
 
 def typed_parser(kind: type, name: str) -> Callable[[str], Any]:
-    """An argparse ``type=`` for ``kind`` (int or float) that refuses non-finite numbers."""
+    """An argparse ``type=`` for ``kind`` (int or float) that refuses non-finite numbers.
+
+    Parameters
+    ----------
+    kind : type
+        ``int`` or ``float``.
+    name : str
+        The option's name.
+
+    Returns
+    -------
+    callable
+        Text -> value; raises ``argparse.ArgumentTypeError`` on bad text.
+    """
     def parse(text: str) -> Any:
         try:
             value = kind(text)
@@ -234,6 +257,14 @@ def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: typ
     Every flag's destination is ``opt_<name>`` with default None, so that only the
     options given on the command line override the class's defaults
     (:func:`given_options`). A boolean option becomes ``--flag`` / ``--no-flag``.
+
+    Parameters
+    ----------
+    group : argparse group or parser
+    cls : type
+        An options class.
+    skip : tuple of str
+        Options not to offer.
     """
     for f, spec in cls.specs():
         if not spec.cli or f.name in skip:
@@ -257,7 +288,19 @@ def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: typ
 
 
 def given_options(args: argparse.Namespace, cls: type[Options]) -> dict[str, Any]:
-    """The options of ``cls`` given on the command line (name -> value)."""
+    """The options of ``cls`` given on the command line (name -> value).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed with flags from :func:`add_flags`.
+    cls : type
+        The options class.
+
+    Returns
+    -------
+    dict
+    """
     names = {f.name for f, _ in cls.specs()}
     return {k[4:]: v for k, v in vars(args).items()
             if k.startswith("opt_") and k[4:] in names and v is not None}
@@ -267,7 +310,16 @@ def given_options(args: argparse.Namespace, cls: type[Options]) -> dict[str, Any
 
 
 def parse_crop(text: str) -> tuple[float, ...]:
-    """A crop from its flag text: ``xmin,ymin,xmax,ymax`` or ``x1,y1,x2,y2,x3,y3,...``."""
+    """A crop from its flag text: ``xmin,ymin,xmax,ymax`` or ``x1,y1,x2,y2,x3,y3,...``.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    tuple of float
+    """
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
@@ -278,7 +330,25 @@ def parse_crop(text: str) -> tuple[float, ...]:
 def crop_value(name: str, value: Any) -> tuple[Any, ...]:
     """Check a crop and return it as a tuple: a box ``(xmin, ymin, xmax, ymax)`` or a polygon
     of at least 3 vertices ``((x, y), ...)``; a flat list of 6 or more numbers (an even
-    count) is a polygon too."""
+    count) is a polygon too.
+
+    Parameters
+    ----------
+    name : str
+        Option name for the message.
+    value : sequence or ndarray
+        4 numbers, (K, 2) vertices or 2 K numbers (m).
+
+    Returns
+    -------
+    tuple
+        ``(xmin, ymin, xmax, ymax)`` or ``((x, y), ...)``.
+
+    Examples
+    --------
+    >>> crop_value("crop", [0, 0, 4, 0, 0, 3])
+    ((0.0, 0.0), (4.0, 0.0), (0.0, 3.0))
+    """
     import numpy as np
 
     try:

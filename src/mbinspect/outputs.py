@@ -103,7 +103,16 @@ def to_jsonable(value: Any) -> Any:
 
 
 def dataclasses_asdict(obj: Any) -> dict[str, Any]:
-    """``dataclasses.asdict(obj)`` made JSON-ready (:func:`to_jsonable`)."""
+    """``dataclasses.asdict(obj)`` made JSON-ready (:func:`to_jsonable`).
+
+    Parameters
+    ----------
+    obj : dataclass instance
+
+    Returns
+    -------
+    dict
+    """
     import dataclasses
 
     out: dict[str, Any] = to_jsonable(dataclasses.asdict(obj))

@@ -34,7 +34,17 @@ def _mpl() -> Any:
 
 
 def save_figure(fig: Any, path: str | Path) -> bytes:
-    """Save a matplotlib figure as PNG atomically; return the PNG bytes for embedding."""
+    """Save a matplotlib figure as PNG atomically; return the PNG bytes for embedding.
+
+    Parameters
+    ----------
+    fig : matplotlib Figure
+    path : path-like
+
+    Returns
+    -------
+    bytes
+    """
     buf = _io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     _mpl().close(fig)
@@ -50,6 +60,21 @@ def plan_image(points: np.ndarray, *, cell: float = 0.25, bounds: Sequence[float
 
     Empty cells within ``fill`` m of a cell with data take its value (gaps between pings);
     farther ones stay NaN.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    cell : float
+        Image cell (m).
+    bounds : (xmin, ymin, xmax, ymax), optional
+    fill : float
+        Gap-filling distance (m).
+
+    Returns
+    -------
+    image : ndarray, shape (ny, nx)
+    extent : list of float
+        ``[xmin, xmax, ymin, ymax]`` for ``imshow``.
     """
     p = np.asarray(points, np.float64)
     if bounds is None:
@@ -78,7 +103,20 @@ def plan_image(points: np.ndarray, *, cell: float = 0.25, bounds: Sequence[float
 
 def html_table(rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
                headers: Sequence[str] | None = None, digits: int = 3) -> str:
-    """An HTML table of ``rows`` (dicts) with the given columns."""
+    """An HTML table of ``rows`` (dicts) with the given columns.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+    columns : sequence of str
+    headers : sequence of str, optional
+    digits : int
+        Decimals of floats.
+
+    Returns
+    -------
+    str
+    """
     def fmt(v: Any) -> str:
         if v is None:
             return ""
@@ -109,7 +147,18 @@ pre{background:#f6f6f6;padding:.6em;font-size:.8em;overflow-x:auto}
 
 def html_page(title: str, sections: Sequence[tuple[str, str]],
               images: Mapping[str, bytes] | None = None) -> str:
-    """A complete HTML document; ``{img:NAME}`` in a section becomes an embedded PNG."""
+    """A complete HTML document; ``{img:NAME}`` in a section becomes an embedded PNG.
+
+    Parameters
+    ----------
+    title : str
+    sections : sequence of (heading, html)
+    images : mapping of name -> PNG bytes
+
+    Returns
+    -------
+    str
+    """
     parts = [f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
              f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
              f"<h1>{html.escape(title)}</h1>"]
@@ -126,7 +175,19 @@ def html_page(title: str, sections: Sequence[tuple[str, str]],
 
 
 def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]:
-    """The pile figures: plan view, one per pile, convergence. Returns name -> PNG bytes."""
+    """The pile figures: plan view, one per pile, convergence. Returns name -> PNG bytes.
+
+    Parameters
+    ----------
+    result : PileResult
+    points : ndarray, shape (N, 3)
+    out : Path
+        Folder the PNGs are written to.
+
+    Returns
+    -------
+    dict
+    """
     plt = _mpl()
     images: dict[str, bytes] = {}
     piles = list(result.piles)
@@ -249,6 +310,17 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
 
     Returns the names of the files written. ``truth`` (a simulator truth dict) adds the
     errors against truth to the report.
+
+    Parameters
+    ----------
+    result : PileResult
+    points : ndarray, shape (N, 3)
+        The soundings, for the figures.
+    out : Path
+        The (staging) output folder.
+    figures : bool
+    title : str
+    truth : mapping, optional
     """
     from .outputs import write_json, write_table
 
@@ -314,7 +386,19 @@ def _hillshade(z: np.ndarray, cell: float) -> np.ndarray:
 
 
 def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]:
-    """Reef figures: plan map, profiles per group, height histogram. Returns name -> PNG."""
+    """Reef figures: plan map, profiles per group, height histogram. Returns name -> PNG.
+
+    Parameters
+    ----------
+    result : ReefResult
+    points : ndarray, shape (N, 3)
+    out : Path
+        Folder the PNGs are written to.
+
+    Returns
+    -------
+    dict
+    """
     from matplotlib.patches import Polygon as MplPolygon
 
     plt = _mpl()
@@ -392,7 +476,22 @@ def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
 
 def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: bool = True,
                        title: str = "Artificial reefs") -> list[str]:
-    """Write ``reefs.json``, ``reefs.csv``, ``reefs.geojson``, figures and ``report.html``."""
+    """Write ``reefs.json``, ``reefs.csv``, ``reefs.geojson``, figures and ``report.html``.
+
+    Parameters
+    ----------
+    result : ReefResult
+    points : ndarray, shape (N, 3)
+    out : Path
+        The (staging) output folder.
+    figures : bool
+    title : str
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
     import json
 
     from .outputs import to_jsonable, write_json, write_table

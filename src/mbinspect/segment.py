@@ -26,6 +26,15 @@ __all__ = ["normals", "kmeans", "components", "elevation_window", "otsu_threshol
 def normals(points: np.ndarray, *, k: int = 16, workers: int = -1) -> tuple[np.ndarray, np.ndarray]:
     """Unit normals by PCA over the ``k`` nearest neighbours, oriented up (n_z >= 0).
 
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Points (m).
+    k : int
+        Neighbours per point.
+    workers : int
+        Threads of the neighbour search (-1: all cores).
+
     Returns
     -------
     normals : ndarray, shape (N, 3)
@@ -55,6 +64,15 @@ def normals(points: np.ndarray, *, k: int = 16, workers: int = -1) -> tuple[np.n
 def kmeans(points: np.ndarray, k: int, *, seed: int = 0, n_init: int = 10
            ) -> tuple[np.ndarray, np.ndarray]:
     """K-means with k-means++ seeding, best of ``n_init`` seeded runs.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, D)
+    k : int
+        Clusters.
+    seed : int
+    n_init : int
+        Seeded restarts; the one of least inertia wins.
 
     Returns
     -------
@@ -103,6 +121,24 @@ def components(points: np.ndarray, *, eps: float, min_points: int = 1) -> np.nda
 
     Returns labels 0..K-1 ordered by decreasing size; components smaller than
     ``min_points`` get -1.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, D)
+        Points (m).
+    eps : float
+        Linking distance (m).
+    min_points : int
+        Smaller components are labelled -1.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+
+    Examples
+    --------
+    >>> components(np.array([[0.0, 0], [0.3, 0], [5, 5]]), eps=0.5).tolist()
+    [0, 0, 1]
     """
     pts = np.asarray(points, np.float64)
     n = len(pts)
@@ -125,6 +161,20 @@ def elevation_window(z: np.ndarray, *, window: float = 0.1, step: float = 0.01
     """The pile paper's top-face search: slide a ``window`` m z-interval by ``step`` m.
 
     Returns the interval ``(lo, hi)`` holding the most points and that count.
+
+    Parameters
+    ----------
+    z : ndarray, shape (N,)
+        Elevations (m).
+    window, step : float
+        Window height and step (m).
+
+    Returns
+    -------
+    lo, hi : float
+        The window (m).
+    count : int
+        Points in it.
     """
     if window <= 0 or step <= 0:
         raise ParameterError(f"window {window} and step {step} must be positive")
@@ -139,7 +189,24 @@ def elevation_window(z: np.ndarray, *, window: float = 0.1, step: float = 0.01
 
 
 def otsu_threshold(values: np.ndarray, *, bins: int = 256) -> float:
-    """Otsu's threshold: the split that maximises the between-class variance."""
+    """Otsu's threshold: the split that maximises the between-class variance.
+
+    Parameters
+    ----------
+    values : ndarray, shape (N,)
+    bins : int
+        Histogram bins.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> v = np.r_[np.full(50, 10.0), np.full(50, 30.0)]
+    >>> 10 < otsu_threshold(v) < 30
+    True
+    """
     v = np.asarray(values, np.float64)
     v = v[np.isfinite(v)]
     if len(v) < 2 or v.min() == v.max():

@@ -722,6 +722,20 @@ def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float,
     ``kind`` names one of :data:`mbinspect.designs.BUILTIN_DESIGNS` (``cross2``,
     ``cross1``, ``hollow``, ``triangle``); ``scale`` is the as-built size relative to the
     design (every dimension).
+
+    Parameters
+    ----------
+    kind : str
+    x, y : float
+        Local position (m).
+    bearing_deg : float
+    z_base : float
+        Base elevation (m).
+    scale : float
+
+    Returns
+    -------
+    tuple of Box
     """
     if kind not in BUILTIN_DESIGNS:
         raise ParameterError(

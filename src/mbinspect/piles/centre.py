@@ -117,6 +117,21 @@ def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarr
     1-sigma), ``cov`` (2 x 2, m²) and ``top_coverage`` (share of the disc seen).
 
     Parameters are those of :func:`centre_method`.
+
+    Parameters
+    ----------
+    top : ndarray, shape (N, 3)
+        Top-face points (m).
+    radius, ks : float
+        Pile radius and the paper's k_s (m).
+    start : ndarray (3,), optional
+        Starting centre.
+    groups : ndarray (N,), optional
+        Ping of each point.
+
+    Returns
+    -------
+    dict
     """
     c, used, cov = centre_method(top, radius=radius, ks=ks, start=start, groups=groups)
     return {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),

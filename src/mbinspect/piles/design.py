@@ -204,6 +204,15 @@ def apply_design(piles: tuple[PileFit, ...], design: Design | None
     piles : tuple of PileFit
     design : Design or None
 
+    Examples
+    --------
+    >>> from mbinspect.piles import PileFit
+    >>> measured = tuple(PileFit(i, x, 0.0, -16.0, 0.75, None, None, "centre", 50, 0, 0.0, 0.0, 0.001)
+    ...                  for i, x in ((1, 22.02), (2, 0.01)))
+    >>> piles, remap, warnings = apply_design(measured, Design(positions={7: (0, 0), 8: (22, 0)}))
+    >>> remap, warnings
+    ({1: 8, 2: 7}, [])
+
     Returns
     -------
     piles : tuple of PileFit

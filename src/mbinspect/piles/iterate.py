@@ -37,6 +37,19 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
     progress : callable, optional
         Called with the fraction of the pipeline done (0.3 to 0.9 over the rounds).
 
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("jacket", seed=2, ping_spacing=0.5)
+    >>> from mbinspect.piles import PileOptions, elevated_points, segment_piles, separate_piles
+    >>> opts = PileOptions(radius=0.75, count=4)
+    >>> up, _, _ = elevated_points(sim.cloud.xyz)
+    >>> labels, _ = separate_piles(sim.cloud.xyz[up], count=4, radius=0.75)
+    >>> segs, normals, _ = segment_piles(sim.cloud.xyz[up], labels, opts)
+    >>> fits, rounds = iterate(segs, normals, opts)
+    >>> len(fits), 2 <= len(rounds) <= opts.max_iterations
+    (4, True)
+
     Returns
     -------
     measures : dict

@@ -40,6 +40,21 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
     previous : PileMeasure, optional
         The previous iteration's measure: its centre and cylinder are the starts.
 
+    Examples
+    --------
+    >>> from mbinspect.piles import PileOptions, PileSegment
+    >>> rng = np.random.default_rng(1)
+    >>> a, z = rng.uniform(0, 2 * np.pi, 800), rng.uniform(-19, -16.3, 800)
+    >>> side = np.column_stack([0.75 * np.cos(a), 0.75 * np.sin(a), z])
+    >>> r, t = 0.6 * np.sqrt(rng.uniform(0, 1, 300)), rng.uniform(0, 2 * np.pi, 300)
+    >>> top = np.column_stack([r * np.cos(t), r * np.sin(t), np.full(300, -16.0)])
+    >>> seg = PileSegment(np.vstack([side, top]), np.r_[np.zeros(800, bool), np.ones(300, bool)],
+    ...                   np.r_[np.ones(800, bool), np.zeros(300, bool)])
+    >>> nrm = np.column_stack([np.cos(a), np.sin(a), np.zeros(800)])
+    >>> m = measure_pile(seg, seg.top, seg.side, nrm, options=PileOptions(radius=0.75), seed=1)
+    >>> m.method, round(m.x, 3) + 0.0, round(m.y, 3) + 0.0, round(m.z, 3)
+    ('intersection', 0.0, 0.0, -16.0)
+
     Returns
     -------
     PileMeasure
@@ -125,6 +140,16 @@ def prune(seg: PileSegment, fit: PileMeasure, *, radius: float, ks: float, thres
         This iteration's measure.
     radius, ks, threshold : float
         Prior radius, the paper's k_s and the inlier distance (m).
+
+    Examples
+    --------
+    >>> from mbinspect.piles import PileMeasure, PileSegment
+    >>> pts = np.array([[0.0, 0, -16], [0.3, 0, -16], [0.2, 0.1, -16], [3.0, 0, -16]])
+    >>> seg = PileSegment(pts, np.ones(4, bool), np.zeros(4, bool))
+    >>> fit = PileMeasure(0.0, 0.0, -16.0, "centre", np.eye(2), 0.0, 0.0, 4, 0)
+    >>> top, side = prune(seg, fit, radius=0.75, ks=0.1, threshold=0.06)
+    >>> top.tolist()
+    [True, True, True, False]
 
     Returns
     -------

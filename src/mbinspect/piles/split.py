@@ -109,6 +109,17 @@ def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, 
     intensity_threshold : float, optional
         Points darker than this are dropped (the joint segmentation only).
 
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("jacket", seed=2, ping_spacing=0.5)
+    >>> from mbinspect.piles import PileOptions, elevated_points, separate_piles
+    >>> up, _, _ = elevated_points(sim.cloud.xyz)
+    >>> labels, _ = separate_piles(sim.cloud.xyz[up], count=4, radius=0.75)
+    >>> segs, normals, info = segment_piles(sim.cloud.xyz[up], labels, PileOptions(radius=0.75))
+    >>> sorted(segs), all(s.top.sum() > 20 and s.side.sum() > 50 for s in segs.values())
+    ([1, 2, 3, 4], True)
+
     Returns
     -------
     segments : dict

@@ -15,7 +15,30 @@ __all__ = ["denoise", "reef_points", "clean_reef_points"]
 
 def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
             ) -> tuple[np.ndarray, FilterReport]:
-    """The paper's radius filter: noise if ``<= min_neighbors`` neighbours within ``radius`` m."""
+    """The paper's radius filter: noise if ``<= min_neighbors`` neighbours within ``radius`` m.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    radius : float
+        r (m).
+    min_neighbors : int
+        n.
+
+    Returns
+    -------
+    keep : ndarray of bool, shape (N,)
+    report : FilterReport
+        How many were seen and removed.
+
+    Examples
+    --------
+    >>> pts = np.array([[0.0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0.1, 0.1, 0], [0.05, 0.05, 0], [9, 9, 9]])
+    >>> keep, report = denoise(pts)
+    >>> keep.tolist(), report.n_removed
+    ([True, True, True, True, True, False], 1)
+    """
     keep = radius_outlier(points, radius=radius, min_neighbors=min_neighbors)
     return keep, FilterReport("radius", len(keep), int((~keep).sum()),
                               {"radius": radius, "min_neighbors": min_neighbors})
@@ -30,6 +53,31 @@ def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
     within ``link`` m (plan) of a core point (hysteresis): the reef's feet are kept, a
     lone seabed bump is not. ``height`` may give the heights above ``seabed`` when the
     caller already has them.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    seabed : Seabed
+        The seabed surface (:func:`fit_seabed`).
+    min_height, foot_height : float
+        Core and foot heights above the seabed (m).
+    link : float
+        Plan distance (m) from a foot point to a core point.
+    height : ndarray (N,), optional
+        Heights above ``seabed`` (m).
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.reefs import fit_seabed
+    >>> from mbinspect.simulate import LABELS
+    >>> seabed, _ = fit_seabed(sim.cloud.xyz)
+    >>> mask, height = reef_points(sim.cloud.xyz, seabed)
+    >>> bool(mask[sim.labels == LABELS["reef"]].mean() > 0.8), bool(mask[sim.labels == 0].mean() < 0.01)
+    (True, True)
 
     Returns
     -------
@@ -67,6 +115,14 @@ def clean_reef_points(points: np.ndarray, is_reef: np.ndarray, *, k: int, std_ra
     std_ratio : float
         Points whose mean neighbour distance exceeds the mean by this many standard
         deviations are outliers.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> pts = np.vstack([rng.uniform(0, 1, (200, 3)), [[20.0, 20.0, 20.0]]])
+    >>> mask, report = clean_reef_points(pts, np.ones(201, bool), k=8, std_ratio=3.0)
+    >>> bool(mask[-1]), report.n_removed
+    (False, 1)
 
     Returns
     -------

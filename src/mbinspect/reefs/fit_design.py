@@ -37,6 +37,48 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_re
     can look like a double-layer one whose upper layer was missed; its height tells), all
     of them when none is. ``own`` may give the reef's soundings (indices into ``points``)
     and ``window`` the cells whose surroundings are searched (default: ``cells``).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    cells : ndarray of int
+        The reef's raster cells.
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    is_reef : ndarray of bool, shape (N,)
+    height : ndarray, shape (N,)
+        Heights above the seabed (m).
+    designs : sequence of ReefDesign
+    margin : int
+        Cells around the reef whose soundings take part.
+    ground : float
+        Seabed soundings within this height (m) are outside soundings.
+    max_misfit : float
+        Largest share of edge soundings on the wrong side.
+    reef_height : float, optional
+        The reef's measured height (m).
+    own, window : ndarray of int, optional
+        The reef's soundings, and the cells searched.
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.designs import parse_designs
+    >>> from mbinspect.reefs import fit_seabed, reef_points, split_reefs
+    >>> seabed, _ = fit_seabed(sim.cloud.xyz)
+    >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
+    >>> parts, _, raster, _ = split_reefs(sim.cloud.xyz, is_reef, height=height)
+    >>> designs = parse_designs("cross1,cross2")
+    >>> fit = fit_reef_design(sim.cloud.xyz, parts[0], raster, is_reef, height, designs)
+    >>> fit.design, bool(abs(fit.scale - 1) < 0.05)
+    ('cross1', True)
+
+    Returns
+    -------
+    DesignFit or None
     """
     if reef_height is not None and math.isfinite(reef_height):
         near = [d for d in designs if abs(d.height - reef_height) <= 0.3 + 0.2 * d.height]
@@ -75,6 +117,28 @@ def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
     side and costs no more than the two separate fits (a part no design fits costs
     without bound), they are one reef. Two reefs side by side are not: one design cannot
     hold both, and their soundings outside it cost.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    parts : list of ndarray
+        Each part's raster cells.
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    is_reef : ndarray of bool, shape (N,)
+    height : ndarray, shape (N,)
+        Heights above the seabed (m).
+    designs : sequence of ReefDesign
+    fits : list of DesignFit or None
+        Each part's fit.
+    heights : list of float
+        Each part's height (m).
+    max_misfit : float
+
+    Returns
+    -------
+    parts, fits, heights : lists
+        The same, with joined parts in place of their pieces.
     """
     if len(parts) < 2:
         return parts, fits, heights
@@ -115,6 +179,25 @@ def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Ras
     Where two reefs lie close (their fitted footprints within 0.5 m), the split between
     them came from the free-form raster; each of their soundings now goes to the fitted
     design it lies deeper inside (smaller signed distance), and both are fitted again.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    parts : sequence of ndarray
+        Each reef's raster cells.
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    is_reef : ndarray of bool, shape (N,)
+    height : ndarray, shape (N,)
+    designs : sequence of ReefDesign
+    fits : list of DesignFit or None
+    heights : sequence of float
+    rounds : int
+        Rounds of sharing and fitting per pair.
+
+    Returns
+    -------
+    list of DesignFit or None
     """
     by_name = {d.name: d for d in designs}
     fits = list(fits)
@@ -148,7 +231,18 @@ def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Ras
 
 
 def with_design(reef: Reef, fit: DesignFit | None) -> Reef:
-    """A reef's measures with its centre, area, rectangle and outline from a fitted design."""
+    """A reef's measures with its centre, area, rectangle and outline from a fitted design.
+
+    Parameters
+    ----------
+    reef : Reef
+    fit : DesignFit or None
+        None leaves the reef as it is.
+
+    Returns
+    -------
+    Reef
+    """
     if fit is None:
         return reef
     rect = min_area_rectangle(fit.outline)

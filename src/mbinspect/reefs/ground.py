@@ -44,6 +44,15 @@ def fit_seabed(points: np.ndarray, *, mode: str = "auto", threshold: float = 0.5
     grid_height : ndarray (N,), optional
         The points' heights above ``grid``, when the caller has them.
 
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(0, 30, (5000, 2))
+    >>> pts = np.column_stack([xy, -17.0 + 0.02 * xy[:, 0] + rng.normal(0, 0.02, 5000)])
+    >>> seabed, info = fit_seabed(pts)
+    >>> info["method"], round(float(seabed.elevation(np.array([10.0]), np.array([5.0]))[0]), 2)
+    ('plane', -16.8)
+
     Returns
     -------
     seabed, info : the surface (``elevation``, ``height_above``) and a JSON-ready summary,

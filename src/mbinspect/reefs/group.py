@@ -16,6 +16,21 @@ __all__ = ["group_reefs", "number_reefs"]
 
 
 def group_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
+    """Reefs grouped: centres chained within ``link`` m; groups numbered in reading order.
+
+    Parameters
+    ----------
+    reefs : sequence of Reef
+    link : float
+        Linking distance (m).
+
+    Returns
+    -------
+    group_ids : list of int
+        Each reef's group, from 1.
+    groups : list of dict
+        Per group: id, count, centre x and y, hull area and reef area (m²), mean height (m).
+    """
     if not reefs:
         return [], []
     xy = np.array([[r.x, r.y] for r in reefs])
@@ -49,6 +64,15 @@ def number_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[Reef], list[d
     reefs : sequence of Reef
     link : float
         Group linking distance (m).
+
+    Examples
+    --------
+    >>> from mbinspect.reefs import Reef
+    >>> reefs = [Reef(0, x, y, -17.0, -16.0, 1.0, 5.0, 3.0, 3.0, 0.0, 5.0, 9.0, 50)
+    ...          for x, y in ((10.0, 0.0), (0.0, 0.0), (5.0, 50.0))]
+    >>> numbered, groups = number_reefs(reefs, 12.0)
+    >>> [(r.id, r.x, r.y, r.group) for r in numbered], [g["count"] for g in groups]
+    ([(1, 5.0, 50.0, 1), (2, 0.0, 0.0, 2), (3, 10.0, 0.0, 2)], [1, 2])
 
     Returns
     -------

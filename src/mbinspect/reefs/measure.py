@@ -17,7 +17,20 @@ __all__ = ["measure_reef", "outline", "soundings_around", "own_soundings", "ring
 
 
 def outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.ndarray:
-    """The longest boundary of a cell mask as a polygon (K, 2) in map coordinates."""
+    """The longest boundary of a cell mask as a polygon (K, 2) in map coordinates.
+
+    Parameters
+    ----------
+    cells_mask : ndarray of bool, shape (ny, nx)
+    x0, y0 : float
+        Corner of the mask (m).
+    cell : float
+        Cell size (m).
+
+    Returns
+    -------
+    ndarray, shape (K, 2)
+    """
     import contourpy
 
     m = np.pad(cells_mask.astype(np.float64), 1)
@@ -32,7 +45,20 @@ def outline(cells_mask: np.ndarray, x0: float, y0: float, cell: float) -> np.nda
 
 def soundings_around(raster: Raster, cj: np.ndarray, ci: np.ndarray, margin: int) -> np.ndarray:
     """The soundings nearest to the raster cells in the bounding box of cells (cj, ci)
-    widened by ``margin`` cells (indices, sorted)."""
+    widened by ``margin`` cells (indices, sorted).
+
+    Parameters
+    ----------
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    cj, ci : ndarray of int
+        Rows and columns of the cells.
+    margin : int
+
+    Returns
+    -------
+    ndarray of int
+    """
     ny, nx = raster.nearest.shape
     j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
     i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
@@ -41,7 +67,20 @@ def soundings_around(raster: Raster, cj: np.ndarray, ci: np.ndarray, margin: int
 
 
 def own_soundings(cells: np.ndarray, raster: Raster, is_reef: np.ndarray | None) -> np.ndarray:
-    """The (reef, given ``is_reef``) soundings nearest to a reef's raster cells (indices, sorted)."""
+    """The (reef, given ``is_reef``) soundings nearest to a reef's raster cells (indices, sorted).
+
+    Parameters
+    ----------
+    cells : ndarray of int
+        Flat raster cell indices.
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    is_reef : ndarray of bool, optional
+
+    Returns
+    -------
+    ndarray of int
+    """
     own = raster.nearest.ravel()[cells]
     own = np.unique(own[own >= 0])
     return own if is_reef is None else own[is_reef[own]]
@@ -56,6 +95,25 @@ def ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: Rast
     reef flattens) fitted by trimmed least squares to the non-reef soundings nearest to the
     raster cells within ``margin`` cells of the reef and within the ground band (0.3 m) of the seabed
     surface; None when the ring is too thin to hold one (then the grid is used).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    cj, ci : ndarray of int
+        The reef's raster cells (rows, columns).
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    seabed : Seabed
+    is_reef : ndarray of bool, optional
+    x, y : float
+        The reef's centre (m).
+    margin : int
+        Width of the ring (cells).
+
+    Returns
+    -------
+    callable or None
+        ``surface(x, y)`` -> elevation (m).
     """
     idx = soundings_around(raster, cj, ci, margin)
     if is_reef is not None:
@@ -103,6 +161,37 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
     cells x cell². Length, width, orientation: minimum-area rectangle. Volume: sum over
     cells of (nearest sounding's z - seabed) x cell².
     Envelope volume: length x width x height (the reef's "empty volume").
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    cells : ndarray of int
+        The reef's flat raster cell indices.
+    raster : Raster
+        The labelled footprint raster (:func:`split_reefs`).
+    seabed : Seabed
+    reef_id : int
+    is_reef : ndarray of bool, optional
+        The reef soundings (the top uses these only).
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.reefs import fit_seabed, reef_points, split_reefs
+    >>> seabed, _ = fit_seabed(sim.cloud.xyz)
+    >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
+    >>> parts, _, raster, _ = split_reefs(sim.cloud.xyz, is_reef, height=height)
+    >>> reef = measure_reef(sim.cloud.xyz, parts[0], raster, seabed, is_reef=is_reef)
+    >>> truth = min(sim.truth["reefs"], key=lambda t: (t["x"] - reef.x) ** 2 + (t["y"] - reef.y) ** 2)
+    >>> bool(abs(reef.height - truth["height"]) < 0.1 and abs(reef.x - truth["x"]) < 0.3)
+    True
+
+    Returns
+    -------
+    Reef
     """
     ny, nx = raster.labels.shape
     cj, ci = np.divmod(cells, nx)

@@ -16,7 +16,36 @@ __all__ = ["paper_clusters"]
 
 def paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, eps: float,
                     min_area: float) -> tuple[list[Reef], list[dict[str, Any]]]:
-    """The paper's individual reefs: Euclidean clusters of the off-plane points."""
+    """The paper's individual reefs: Euclidean clusters of the off-plane points.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    is_reef : ndarray of bool, shape (N,)
+        The points off the plane.
+    seabed : Seabed
+    eps : float
+        Clustering distance (m).
+    min_area : float
+        Smaller clusters (hull area, m²) are other objects.
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.reefs import fit_seabed
+    >>> plane, _ = fit_seabed(sim.cloud.xyz, mode="plane")
+    >>> h = plane.height_above(sim.cloud.xyz)
+    >>> reefs, others = paper_clusters(sim.cloud.xyz, h > 0.5, plane, eps=0.5, min_area=1.0)
+    >>> len(reefs)
+    4
+
+    Returns
+    -------
+    reefs : list of Reef
+    others : list of dict
+    """
     idx = np.flatnonzero(is_reef)
     lab = components(points[idx], eps=eps, min_points=5)
     reefs, others = [], []

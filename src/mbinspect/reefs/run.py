@@ -152,6 +152,18 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         Heights above ``seabed`` (m).
     options : ReefOptions
 
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.reefs import ReefOptions, fit_seabed, reef_points
+    >>> seabed, _ = fit_seabed(sim.cloud.xyz)
+    >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
+    >>> reefs, others, area = single_reefs(sim.cloud.xyz, is_reef, seabed, height, ReefOptions())
+    >>> len(reefs)
+    4
+
     Returns
     -------
     reefs : list of Reef

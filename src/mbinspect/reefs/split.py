@@ -23,6 +23,28 @@ def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
     A field may hold several kinds of reef in separate groups; a pair of small reefs that
     touch must be judged against its own kind. Only the parts flagged in ``among`` (all by
     default) count; fewer than ``min_parts`` of them around: ``overall``.
+
+    Parameters
+    ----------
+    parts : list of ndarray
+        Each part's flat raster cells.
+    areas : ndarray
+        Their areas (m²).
+    nx : int
+        Raster columns.
+    cell : float
+        Cell size (m).
+    overall : float
+        The field's single-reef area (m²).
+    radius : float
+        Neighbourhood (m).
+    min_parts : int
+    among : ndarray of bool, optional
+
+    Returns
+    -------
+    ndarray
+        Single-reef area near each part (m²).
     """
     if not parts:
         return np.zeros(0)
@@ -38,7 +60,21 @@ def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
 
 def row_ends(xy: np.ndarray) -> np.ndarray:
     """The first and last point of every row (equal y) of a point set: the same convex
-    hull as all of them (every point lies between its row's ends), far fewer points."""
+    hull as all of them (every point lies between its row's ends), far fewer points.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (N, 2)
+
+    Returns
+    -------
+    ndarray, shape (M, 2)
+
+    Examples
+    --------
+    >>> row_ends(np.array([[0.0, 0], [1, 0], [2, 0], [0, 1]])).tolist()
+    [[0.0, 0.0], [2.0, 0.0], [0.0, 1.0]]
+    """
     order = np.lexsort((xy[:, 0], xy[:, 1]))
     y = xy[order, 1]
     new = y[1:] != y[:-1]
@@ -46,7 +82,21 @@ def row_ends(xy: np.ndarray) -> np.ndarray:
 
 
 def diameter(xy: np.ndarray) -> float:
-    """Largest distance between two of the points (on their convex hull)."""
+    """Largest distance between two of the points (on their convex hull).
+
+    Parameters
+    ----------
+    xy : ndarray, shape (N, 2)
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> diameter(np.array([[0.0, 0], [3, 0], [3, 4], [1, 1]]))
+    5.0
+    """
     h = convex_hull(row_ends(xy))
     if len(h) < 2:
         return 0.0
@@ -66,6 +116,24 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
     cell (a field may mix kinds of reef), the union whose diameter is nearest to that of
     the whole reefs around it first. A union stays open to more fragments while it is
     smaller than one reef area.
+
+    Parameters
+    ----------
+    parts : list of ndarray
+        Each part's flat raster cells.
+    areas : ndarray
+        Their areas (m²).
+    nx : int
+        Raster columns.
+    cell : float
+        Cell size (m).
+    reef_area : float or ndarray
+        Single-reef area (m²), one or per part.
+
+    Returns
+    -------
+    parts : list of ndarray
+    areas : ndarray
     """
     ra = np.broadcast_to(np.asarray(reef_area, np.float64), (len(parts),))
     if len(parts) < 2 or not np.isfinite(ra).any():
@@ -149,6 +217,41 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     judged by its own kind) holds ``round(area / reef_area)`` reefs and is split by
     seeded K-means on its cells.
 
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Soundings (m).
+    is_reef : ndarray of bool, shape (N,)
+    cell : float
+        Raster cell (m).
+    reach : float
+        Labelled cells lie within this of a reef sounding (m).
+    reef_area : float, optional
+        Single-reef area (m²); learnt when None.
+    min_area : float
+        Smaller parts are other objects (m²).
+    split_factor : float
+    own, bridge : float
+        In sounding spacings (:func:`nearest_label_raster`).
+    link : float
+        Half the gap joining parts (m).
+    seed : int
+    height : ndarray (N,), optional
+        Heights above the seabed (m).
+    wall : float
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.reefs import fit_seabed, reef_points
+    >>> seabed, _ = fit_seabed(sim.cloud.xyz)
+    >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
+    >>> reefs, others, raster, area = split_reefs(sim.cloud.xyz, is_reef, height=height)
+    >>> len(reefs), bool(2.0 < area < 6.0)
+    (4, True)
+
     Returns
     -------
     reefs, others : lists of cell-index arrays (flat indices into the raster) of reefs and
@@ -204,6 +307,12 @@ def split_large(parts: list[np.ndarray], areas: np.ndarray, reef_area: np.ndarra
     split_factor : float
         A part above this many single-reef areas is several reefs.
     seed : int
+
+    Examples
+    --------
+    >>> cells = np.arange(200)  # a 20 x 10 strip of 0.1 m cells: two 1 m² reefs side by side
+    >>> [len(p) for p in split_large([cells], np.array([2.0]), np.array([1.0]), nx=20, cell=0.1)]
+    [100, 100]
 
     Returns
     -------
