@@ -1,7 +1,8 @@
 """Size and shape of the code: lines per module, the longest functions, their branching,
 and the public functions without a numpydoc ``Parameters`` section or an example.
 
-Run: ``python tools/code_metrics.py [src/mbinspect]``. Cyclomatic complexity is counted as
+Run: ``python tools/code_metrics.py [src/mbinspect]`` (or a subfolder such as
+``src/mbinspect/piles``). Cyclomatic complexity is counted as
 1 + the branch points (if, for, while, except, with, boolean operators, comprehension
 conditions, ternaries, match cases), as radon and mccabe count it.
 """
@@ -24,6 +25,14 @@ def complexity(fn: ast.AST) -> int:
         elif isinstance(node, ast.comprehension):
             n += 1 + len(node.ifs)
     return n
+
+
+def code_lines(fn: ast.FunctionDef) -> int:
+    """Lines of a function without its docstring."""
+    first = fn.body[0]
+    doc = isinstance(first, ast.Expr) and isinstance(getattr(first, "value", None), ast.Constant)
+    skip = (first.end_lineno - first.lineno + 1) if doc else 0
+    return fn.end_lineno - fn.lineno + 1 - skip
 
 
 def functions(tree: ast.Module) -> list[tuple[str, ast.FunctionDef]]:
@@ -49,8 +58,7 @@ def main(root: str = "src/mbinspect") -> None:
             if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "__all__" for t in node.targets):
                 exported = set(ast.literal_eval(node.value))
         for name, fn in functions(tree):
-            length = fn.end_lineno - fn.lineno + 1
-            funcs.append((length, complexity(fn), f"{rel}:{name}"))
+            funcs.append((code_lines(fn), fn.end_lineno - fn.lineno + 1, complexity(fn), f"{rel}:{name}"))
             top = name.split(".")[0]
             if "." in name or name.startswith("_") or (exported is not None and top not in exported):
                 continue
@@ -65,12 +73,12 @@ def main(root: str = "src/mbinspect") -> None:
         print(f"| {name} | {n} |")
     print(f"\n{len(rows)} modules, {sum(n for _, n in rows)} lines; largest: "
           f"{max(rows, key=lambda r: r[1])}")
-    print("\nlongest functions (lines, complexity):")
-    for length, cc, name in sorted(funcs, reverse=True)[:8]:
-        print(f"  {length:4d} {cc:4d}  {name}")
-    print("most complex functions (complexity, lines):")
-    for length, cc, name in sorted(funcs, key=lambda f: -f[1])[:5]:
-        print(f"  {cc:4d} {length:4d}  {name}")
+    print("\nlongest functions (code lines without the docstring, all lines, complexity):")
+    for code, length, cc, name in sorted(funcs, reverse=True)[:8]:
+        print(f"  {code:4d} {length:4d} {cc:4d}  {name}")
+    print("most complex functions (complexity, code lines):")
+    for code, _length, cc, name in sorted(funcs, key=lambda f: -f[2])[:6]:
+        print(f"  {cc:4d} {code:4d}  {name}")
     print(f"\npublic functions: {public}; with a Parameters section (or no parameters): "
           f"{public - len(undocumented)}; with an example: {public - len(no_example)}")
     for name in undocumented:
