@@ -276,3 +276,14 @@ def test_demo_end_to_end_with_the_installed_command(tmp_path):
     assert run.returncode == 3, run.stderr
     assert d["parameters"]["command_line"] == ["mbinspect", "demo", "--seed", "3", "--out", str(out),
                                                "--no-figures"]
+
+
+def test_library_names_in_messages_become_flags(tmp_path, capsys):
+    five = tmp_path / "five.xyz"
+    five.write_text("1 2 3 4 5\n6 7 8 9 10\n")
+    code = main(["info", str(five)])
+    _one_error(capsys, code, "5 columns and no header; give --columns (e.g. x,y,z,intensity,-)")
+    from mbinspect.io import read
+
+    with pytest.raises(ValueError, match="give `columns`"):  # the library names its own option
+        read(five)

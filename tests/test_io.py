@@ -108,7 +108,7 @@ def test_parallel_chunks_give_the_same_answer_and_locate_errors(tmp_path, monkey
         ("1 2 3\n4 nan 6\n", r"line 2, column 2: 'nan' is not a finite number"),
         ("1 2 3\n4 5 inf\n", r"line 2, column 3: 'inf' is not a finite number"),
         ("1 2\n3 4\n", r"line 1: 2 columns; expected at least 3"),
-        ("1 2 3 4 5\n", r"5 columns and no header; pass --columns"),
+        ("1 2 3 4 5\n", r"5 columns and no header; give `columns`"),
         ("a,b,c\n1,2,3\n", r"header: no column for x, y, z"),
         ("# only a comment\n\n", r"no data lines"),
         ("", r"the file is empty"),

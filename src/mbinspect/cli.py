@@ -17,6 +17,7 @@ import dataclasses
 import hashlib
 import json
 import os
+import re
 import sys
 import time
 import warnings
@@ -492,7 +493,8 @@ def _flag_of(args: argparse.Namespace | None, option: str) -> str:
     from .options import flag_names
 
     flags = {"out": "--out", "cell": "--cell", "columns": "--columns", "delimiter": "--delimiter",
-             "format": "--format", "seed": "--seed", "design": "--design"}
+             "format": "--format", "seed": "--seed", "design": "--design", "overwrite": "--overwrite",
+             "force": "--force", "depth_positive": "--depth-positive"}
     command = getattr(args, "command", None)
     if command in ("piles", "demo"):
         from .piles import PileOptions
@@ -510,7 +512,8 @@ def _message(exc: MBInspectError, args: argparse.Namespace | None) -> str:
     text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
     if exc.option and text.startswith(exc.option + ":"):
         text = _flag_of(args, exc.option) + text[len(exc.option):]
-    return text
+    # an option named in the text as `name` is shown as its flag
+    return re.sub(r"`([a-z_]+)`", lambda m: _flag_of(args, m.group(1)), text)
 
 
 @contextmanager
@@ -518,7 +521,8 @@ def _one_line_warnings() -> Iterator[None]:
     """Python warnings shown as one ``mbinspect: warning: ...`` line each."""
     def show(message: Any, category: Any, filename: str, lineno: int, file: Any = None,
              line: str | None = None) -> None:
-        print(f"mbinspect: warning: {message}", file=sys.stderr, flush=True)
+        text = re.sub(r"`([a-z_]+)`", lambda m: _flag_of(None, m.group(1)), str(message))
+        print(f"mbinspect: warning: {text}", file=sys.stderr, flush=True)
 
     with warnings.catch_warnings():
         warnings.simplefilter("default")

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .errors import FileAccessError, InputError, ParameterError
+from .checks import positive
+from .errors import FileAccessError, InputError
 from .outputs import to_jsonable
 
 __all__ = ["Evaluation", "match_points", "read_reference"]
@@ -112,7 +113,7 @@ def match_points(detected: np.ndarray, reference: np.ndarray, *, tolerance: floa
     (1, 1, 0)
     """
     if not tolerance > 0:
-        raise ParameterError(f"--tolerance: {tolerance} must be positive")
+        positive("tolerance", tolerance)
     det = np.asarray(detected, np.float64).reshape(-1, 2)
     ref = np.asarray(reference, np.float64).reshape(-1, 2)
     matches: list[tuple[int, int, float]] = []

@@ -205,7 +205,7 @@ def format_from_path(path: str | os.PathLike[str], format: str | None = None) ->
     known = " ".join(e for exts in FORMATS.values() for e in exts)
     raise InputError(
         f"{path}: unknown extension {suffix or '(none)'!r}; expected one of {known} "
-        "or an explicit --format"
+        "or an explicit `format`"
     )
 
 
@@ -441,7 +441,7 @@ def _sniff_ascii(
         names = parse_columns(columns)
         if len(names) != ncols:
             raise InputError(
-                f"{path}, line {lineno}: {ncols} columns, but --columns names {len(names)}"
+                f"{path}, line {lineno}: {ncols} columns, but `columns` names {len(names)}"
             )
     elif header is not None:
         if len(header) != ncols:
@@ -453,7 +453,7 @@ def _sniff_ascii(
         if missing:
             raise InputError(
                 f"{path}, header: no column for {', '.join(missing)} in {header}; "
-                "name them (x,y,z / easting,northing,depth) or pass --columns"
+                "name them (x,y,z / easting,northing,depth) or give `columns`"
             )
         if any(h.lower() in _DEPTH_NAMES for h in header) and not depth_positive:
             # the header says depth: still never flip silently, but say so once.
@@ -461,7 +461,7 @@ def _sniff_ascii(
 
             warnings.warn(
                 f"{path}: the header names a depth column; z is read as given, as elevation "
-                "(give depth_positive / --depth-positive if it is positive down)",
+                "(give `depth_positive` if it is positive down)",
                 InputWarning, stacklevel=3,
             )
     elif ncols == 3:
@@ -476,7 +476,7 @@ def _sniff_ascii(
     else:
         raise InputError(
             f"{path}, line {lineno}: {ncols} columns and no header; "
-            "pass --columns (e.g. x,y,z,intensity,-) to say which is which"
+            "give `columns` (e.g. x,y,z,intensity,-) to say which is which"
         )
     return _AsciiLayout(delimiter, names, ncols, trailing, offset, lineno)
 

@@ -215,7 +215,7 @@ def check_output_dir(path: str | os.PathLike[str], *, overwrite: bool = False,
                               option="out")
     if target.is_dir() and not overwrite and any(target.iterdir()):
         raise FileAccessError(f"out: {target} exists and is not empty; expected a new or empty "
-                              "folder, or --overwrite to replace it", option="out")
+                              "folder, or `overwrite` to replace it", option="out")
     return target
 
 

@@ -1097,7 +1097,7 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     if estimate > MAX_SOUNDINGS and not force:
         raise ParameterError(
             f"ping_spacing: {opt.ping_spacing} m makes about {estimate / 1e6:,.0f} million soundings; "
-            f"expected at most {MAX_SOUNDINGS / 1e6:,.0f} million (force it with force=True / --force)",
+            f"expected at most {MAX_SOUNDINGS / 1e6:,.0f} million (give `force` to simulate it anyway)",
             option="ping_spacing")
     cloud, labels, ident = survey(scene, plan, seed=int(noise_seed.generate_state(1)[0]),
                                   progress=progress)
