@@ -94,7 +94,8 @@ class Reporter:
 def _add_input(p: argparse.ArgumentParser) -> None:
     from .io import FORMAT_NAMES
 
-    p.add_argument("input", help="point cloud file (.xyz .txt .csv .las .laz .ply .npz)")
+    p.add_argument("input", help="point cloud or sonar file (.xyz .txt .csv .las .laz .ply .npz .gsf "
+                                 ".kmall .all)")
     g = p.add_argument_group("reading")
     g.add_argument("--format", choices=FORMAT_NAMES, help="file format when the extension does not say it")
     g.add_argument("--columns", metavar="MAP",
@@ -103,6 +104,12 @@ def _add_input(p: argparse.ArgumentParser) -> None:
                    help="ASCII delimiter: ',' ';' tab or space (default: sniffed)")
     g.add_argument("--depth-positive", action="store_true",
                    help="z in the file is depth, positive down (it is negated)")
+    g.add_argument("--crs", metavar="CRS",
+                   help="sonar files (GSF, KMALL, .all): the projected CRS to put the soundings in "
+                        "(default: the UTM zone of the data); other files: the CRS of their "
+                        "coordinates when the file does not say it (e.g. EPSG:32631)")
+    g.add_argument("--keep-rejected", action="store_true",
+                   help="sonar files: keep the soundings the sonar or the file rejected (field 'valid')")
 
 
 def _add_output(p: argparse.ArgumentParser, default: str) -> None:
@@ -124,7 +131,8 @@ def _read_input(args: argparse.Namespace, rep: Reporter) -> Any:
 
     t = time.perf_counter()
     cloud = read(args.input, format=args.format, columns=args.columns,
-                 depth_positive=args.depth_positive, delimiter=args.delimiter)
+                 depth_positive=args.depth_positive, delimiter=args.delimiter, crs=args.crs,
+                 keep_rejected=args.keep_rejected)
     rep.debug(f"read {len(cloud):,} points from {args.input} in {time.perf_counter() - t:.2f} s")
     return cloud
 
@@ -494,6 +502,7 @@ def _flag_of(args: argparse.Namespace | None, option: str) -> str:
 
     flags = {"out": "--out", "cell": "--cell", "columns": "--columns", "delimiter": "--delimiter",
              "format": "--format", "seed": "--seed", "design": "--design", "overwrite": "--overwrite",
+             "crs": "--crs", "keep_rejected": "--keep-rejected",
              "force": "--force", "depth_positive": "--depth-positive"}
     command = getattr(args, "command", None)
     if command in ("piles", "demo"):

@@ -63,13 +63,19 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "las": (".las", ".laz"),
     "ply": (".ply",),
     "npz": (".npz",),
+    "gsf": (".gsf", ".mb121"),
+    "kmall": (".kmall",),
+    "all": (".all", ".mb56"),
 }
+
+#: The sonar makers' formats, read by :mod:`mbinspect.sonar` and projected on reading.
+SONAR_FORMATS = ("gsf", "kmall", "all")
 
 #: Other names a format may be given by (``--format laz`` reads LAZ through the LAS reader).
 FORMAT_ALIASES: dict[str, str] = {"laz": "las", "ascii": "xyz", "txt": "xyz", "csv": "xyz"}
 
 #: Every name ``format=`` accepts.
-FORMAT_NAMES: tuple[str, ...] = ("xyz", "las", "laz", "ply", "npz")
+FORMAT_NAMES: tuple[str, ...] = ("xyz", "las", "laz", "ply", "npz", "gsf", "kmall", "all")
 
 #: ASCII delimiters ``delimiter=`` accepts, and the character each stands for (None: any run
 #: of whitespace).
@@ -118,6 +124,8 @@ class PointCloud:
     z_convention : str
         How z was stored in the source: ``"elevation"`` (up) or ``"depth"``
         (positive down, flipped on reading). ``xyz`` is always elevation.
+    meta : mapping
+        What else the source says: format, sonar, version, vertical level, the CRS's name.
     """
 
     xyz: np.ndarray
@@ -125,6 +133,7 @@ class PointCloud:
     source: str | None = None
     crs: str | None = None
     z_convention: str = "elevation"
+    meta: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         xyz = np.ascontiguousarray(self.xyz, dtype=np.float64)
@@ -307,6 +316,8 @@ def read(
     columns: str | Sequence[str] | None = None,
     depth_positive: bool = False,
     delimiter: str | None = None,
+    crs: str | None = None,
+    keep_rejected: bool = False,
 ) -> PointCloud:
     """Read a point cloud file.
 
@@ -326,6 +337,13 @@ def read(
     delimiter : {",", ";", "tab", "space"}, optional
         ASCII only: the column delimiter. Default: sniffed from the first data
         line (comma, semicolon, tab or whitespace).
+    crs : str, optional
+        Sonar formats (GSF, KMALL, .all): the projected CRS to put the soundings in
+        (default: the UTM zone of the data). Other formats: the CRS of the file's
+        coordinates when the file does not say it.
+    keep_rejected : bool
+        Sonar formats: keep the soundings the sonar or the file rejected (the ``valid``
+        field says which); default False.
 
     Returns
     -------
@@ -347,6 +365,14 @@ def read(
     try:
         if p.stat().st_size == 0:
             raise InputError(f"{p}: the file is empty")
+        if fmt in SONAR_FORMATS:
+            if depth_positive:
+                raise ParameterError(f"depth_positive: given for the {fmt} file {p}; expected it only "
+                                     "for exports (a sonar file says what its heights are)",
+                                     option="depth_positive")
+            from .sonar import read_sonar, to_cloud
+
+            return to_cloud(read_sonar(p, fmt), crs=crs, keep_rejected=keep_rejected)
         if fmt == "xyz":
             cloud = _read_ascii(p, columns=columns, delimiter=delimiter,
                                 depth_positive=depth_positive)
@@ -371,7 +397,25 @@ def read(
         xyz = cloud.xyz.copy()
         xyz[:, 2] *= -1.0
         cloud = replace(cloud, xyz=xyz, z_convention="depth")
+    if crs is not None:
+        cloud = _declare_crs(cloud, crs)
     return cloud
+
+
+def _declare_crs(cloud: PointCloud, crs: str) -> PointCloud:
+    """The cloud with ``crs`` as the CRS of its coordinates (checked by pyproj)."""
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
+
+    try:
+        given = CRS.from_user_input(crs)
+    except CRSError:
+        raise ParameterError(f"crs: {crs!r}; expected a CRS such as EPSG:32631", option="crs") from None
+    if cloud.crs is not None and not CRS.from_user_input(cloud.crs).equals(given):
+        raise ParameterError(f"crs: {crs!r}, but {cloud.source} says {CRS.from_user_input(cloud.crs).name}; "
+                             "expected no crs for a file that has one (reprojection is not done here)",
+                             option="crs")
+    return replace(cloud, crs=given.to_wkt())
 
 
 @dataclass(frozen=True)

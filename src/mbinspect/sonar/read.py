@@ -1,0 +1,35 @@
+"""Which reader reads which sonar format."""
+
+from __future__ import annotations
+
+import os
+
+from .common import Soundings
+from .gsf import read_gsf
+from .kmall import read_kmall
+from .kongsberg_all import read_all
+
+__all__ = ["SONAR_FORMATS", "read_sonar"]
+
+#: Sonar format name -> reader.
+SONAR_FORMATS = {"gsf": read_gsf, "kmall": read_kmall, "all": read_all}
+
+
+def read_sonar(path: str | os.PathLike[str], format: str) -> Soundings:
+    """The soundings of a sonar file, by the reader of ``format``.
+
+    Parameters
+    ----------
+    path : path-like
+    format : {"gsf", "kmall", "all"}
+
+    Returns
+    -------
+    Soundings
+
+    Examples
+    --------
+    >>> sorted(SONAR_FORMATS)
+    ['all', 'gsf', 'kmall']
+    """
+    return SONAR_FORMATS[format](str(path))

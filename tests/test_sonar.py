@@ -1,0 +1,100 @@
+"""The sonar readers (GSF, KMALL, .all) against an independent decode of real files."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pyproj import Proj, Transformer
+
+from mbinspect.cli import main
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.io import read
+from mbinspect.sonar import read_sonar, to_cloud, utm_crs
+
+DATA = Path(__file__).parent / "data"
+FILES = ["Belgica_0077.all", "pdal_mbf_em300raw.mb56", "ets_kmall_OS03_-4033476991022010987.kmall",
+         "gsf_EX1502L2_0175.gsf"]
+
+
+def _reference(name: str) -> dict[str, np.ndarray]:
+    ref = np.load(DATA / f"{name.rsplit('.', 1)[0]}.reference.npz")
+    return {k: ref[k] for k in ref.files}
+
+
+def _reference_put_right(ref: dict[str, np.ndarray], crs: str) -> np.ndarray:
+    """The reference's positions with the offsets turned by the grid convergence and scaled.
+
+    The reference adds the along/across offsets in the UTM plane as if grid north were true
+    north; the readers turn them by the true heading on the ellipsoid. On a 3 km swath the
+    grid convergence alone moves an outer beam by metres."""
+    t = Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
+    lon, lat = t.transform(ref["sx"], ref["sy"])
+    f = Proj(crs).get_factors(lon, lat)
+    g, k = np.radians(np.asarray(f.meridian_convergence)), np.asarray(f.meridional_scale)
+    ox, oy = ref["xyz"][:, 0] - ref["sx"], ref["xyz"][:, 1] - ref["sy"]
+    return np.column_stack([ref["sx"] + k * (ox * np.cos(g) - oy * np.sin(g)),
+                            ref["sy"] + k * (ox * np.sin(g) + oy * np.cos(g))])
+
+
+@pytest.mark.parametrize("name", FILES)
+def test_readers_agree_with_an_independent_decode(name):
+    ref = _reference(name)
+    s = read_sonar(DATA / name, {"all": "all", "mb56": "all", "kmall": "kmall", "gsf": "gsf"}[name.split(".")[-1]])
+    assert len(s) == len(ref["xyz"])
+    np.testing.assert_array_equal(s.fields["valid"], ref["valid"].astype(bool))
+    valid = s.fields["valid"]
+    cloud = to_cloud(s, keep_rejected=True)
+    crs = utm_crs(float(np.median(s.lat)), float(np.median(s.lon)))
+    assert cloud.meta["crs_name"].endswith(crs[-2:] + "N") or cloud.meta["crs_name"].endswith(crs[-2:] + "S")
+    dz = np.abs(cloud.xyz[valid, 2] - ref["xyz"][valid, 2])
+    assert dz.max() < 0.02  # depths within 2 cm
+    right = _reference_put_right(ref, crs)
+    dxy = np.hypot(*(cloud.xyz[valid, :2] - right[valid]).T)
+    assert dxy.max() < (0.05 if name.endswith(".kmall") else 0.5)
+    if name.endswith(".kmall"):  # per-sounding positions in the file: the same to the millimetre
+        assert np.abs(cloud.xyz[:, :2] - ref["xyz"][:, :2]).max() < 0.001
+    np.testing.assert_allclose(s.fields["intensity"][valid], ref["intensity"][valid], atol=0.01)
+    read_valid = read(DATA / name)
+    assert len(read_valid) == int(valid.sum()) and read_valid.crs is not None
+    assert set(read_valid.fields) >= {"ping", "beam", "beam_angle", "intensity", "time"}
+
+
+def test_big_endian_old_depth_datagrams():
+    s = read_sonar(DATA / "pdal_mbf_em300raw.mb56", "all")
+    assert s.meta["byte_order"] == "big-endian" and s.meta["sonar"] == "EM3000"
+    assert s.meta["pings"] == 67 and len(np.unique(s.fields["ping"])) == 67
+
+
+def test_kmall_keeps_the_sonar_uncertainty_and_extra_detections():
+    s = read_sonar(DATA / "ets_kmall_OS03_-4033476991022010987.kmall", "kmall")
+    assert (s.fields["sigma_v"] > 0).all() and (s.fields["sigma_v"] < 0.5).all()
+    assert "extra_detection" in s.fields
+
+
+def test_unplaceable_truncated_and_crs_errors(tmp_path, capsys):
+    with pytest.raises(InputError, match="no across-track distances: the soundings cannot be placed"):
+        read(DATA / "GSF3_09_test_file.gsf")
+    cut = tmp_path / "cut.kmall"
+    data = (DATA / "ets_kmall_OS03_-4033476991022010987.kmall").read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError, match=r"cut.kmall, byte \d+: a record of \d+ bytes"):
+        read(cut)
+    with pytest.raises(ParameterError, match="crs: 'EPSG:4326'; expected a projected CRS in metres"):
+        read(DATA / "Belgica_0077.all", crs="EPSG:4326")
+    moved = read(DATA / "Belgica_0077.all", crs="EPSG:32632")  # the next zone east
+    assert "zone 32N" in moved.meta["crs_name"]
+    assert main(["info", str(DATA / "GSF3_09_test_file.gsf")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mbinspect: error: ") and "not georeferenceable" in err and err.count("\n") == 1
+
+
+def test_format_flag_and_rejected_soundings(tmp_path, capsys):
+    odd = tmp_path / "survey.bin"
+    shutil.copy(DATA / "gsf_EX1502L2_0175.gsf", odd)
+    assert main(["info", str(odd), "--format", "gsf", "--keep-rejected", "--json"]) == 0
+    assert '"n_points": 1728' in capsys.readouterr().out
+    assert main(["info", str(odd), "--format", "gsf", "--depth-positive"]) == 2
+    assert "--depth-positive: given for the gsf file" in capsys.readouterr().err
