@@ -42,7 +42,8 @@ def _reference_put_right(ref: dict[str, np.ndarray], crs: str) -> np.ndarray:
 @pytest.mark.parametrize("name", FILES)
 def test_readers_agree_with_an_independent_decode(name):
     ref = _reference(name)
-    s = read_sonar(DATA / name, {"all": "all", "mb56": "all", "kmall": "kmall", "gsf": "gsf"}[name.split(".")[-1]])
+    fmt = {"all": "all", "mb56": "all", "kmall": "kmall", "gsf": "gsf"}[name.split(".")[-1]]
+    s = read_sonar(DATA / name, fmt)
     assert len(s) == len(ref["xyz"])
     np.testing.assert_array_equal(s.fields["valid"], ref["valid"].astype(bool))
     valid = s.fields["valid"]
