@@ -28,6 +28,8 @@ _ARRAYS = {1: ("depth", 2, False), 2: ("across", 2, True), 3: ("along", 2, True)
            19: ("sigma_v", 2, False), 20: ("sigma_h", 2, False)}
 _SCALE = 100
 _UNSCALED = {"flags"}
+_KINDS = {(1, True): "b", (1, False): "B", (2, True): ">i2", (2, False): ">u2", (4, True): ">i4",
+          (4, False): ">u4"}
 
 
 def read_gsf(path: str) -> Soundings:
@@ -57,7 +59,7 @@ def read_gsf(path: str) -> Soundings:
     version = ""
     scales: dict[int, tuple[float, float, int]] = {}
     pings: list[tuple] = []
-    arrays: dict[str, list[np.ndarray]] = {k[0]: [] for k in _ARRAYS.values()}
+    arrays: dict[str, list[tuple[np.ndarray, float, float]]] = {k[0]: [] for k in _ARRAYS.values()}
     off, n = 0, len(data)
     while off + 8 <= n:
         size, ident = struct.unpack_from(">II", data, off)
@@ -78,13 +80,13 @@ def read_gsf(path: str) -> Soundings:
 
 
 def _ping(dg: Datagrams, start: int, end: int, off: int, version: str,
-          scales: dict[int, tuple[float, float, int]], arrays: dict[str, list[np.ndarray]]) -> tuple:
+          scales: dict[int, tuple[float, float, int]],
+          arrays: dict[str, list[tuple[np.ndarray, float, float]]]) -> tuple:
     data = dg.data
     sec, nsec, lon, lat, nbeams, _centre, ping_flags, _res, tide, draft, heading = struct.unpack_from(
         ">iiiiHHHhhiH", data, start)
-    new = version >= "GSF-v03.01"
-    p = start + (56 if new else 42)
-    got: dict[str, np.ndarray] = {}
+    p = start + (56 if version >= "GSF-v03.01" else 42)
+    got: dict[str, tuple[np.ndarray, float, float]] = {}
     while p + 4 <= end:
         word, = struct.unpack_from(">I", data, p)
         sub, size = word >> 24, word & 0xFFFFFF
@@ -99,29 +101,38 @@ def _ping(dg: Datagrams, start: int, end: int, off: int, version: str,
         elif sub in _ARRAYS and nbeams:
             name, default, signed = _ARRAYS[sub]
             width = size // nbeams if size // nbeams in (1, 2, 4) else default
-            kind = {1: "b" if signed else "B", 2: ">i2" if signed else ">u2",
-                    4: ">i4" if signed else ">u4"}[width]
-            raw = np.frombuffer(data, kind, nbeams, body).astype(np.float64)
+            raw = np.frombuffer(data, _KINDS[width, signed], nbeams, body)
+            mult, offset = 1.0, 0.0
             if name not in _UNSCALED:
                 if sub not in scales or scales[sub][0] == 0:
                     raise dg.fail(f"ping array subrecord {sub} ({name}) without a scale factor", off)
-                mult, offset, _ = scales[sub]
-                raw = raw / mult - offset
-            got[name] = raw
+                mult, offset = scales[sub][:2]
+            got[name] = (raw, mult, offset)
         p = body + size
-    for name in arrays:
-        arrays[name].append(got.get(name, np.full(nbeams, np.nan)))
+    for name, parts in arrays.items():
+        parts.append(got[name] if name in got else (np.full(nbeams, np.nan), 1.0, 0.0))
     return (sec + nsec * 1e-9, lat * 1e-7, lon * 1e-7, heading / 100.0, ping_flags, nbeams,
             "across" in got, "depth" in got)
 
 
-def _assemble(path: str, version: str, pings: list[tuple], arrays: dict[str, list[np.ndarray]]) -> Soundings:
+def _scaled(parts: list[tuple[np.ndarray, float, float]], counts: np.ndarray) -> np.ndarray:
+    """One array of a file: every ping's stored values, scaled by that ping's factors."""
+    if not parts:
+        return np.zeros(0)
+    raw = np.concatenate([q[0] for q in parts]).astype(np.float64)
+    mult = np.repeat([q[1] for q in parts], counts)
+    offset = np.repeat([q[2] for q in parts], counts)
+    return raw / mult - offset
+
+
+def _assemble(path: str, version: str, pings: list[tuple],
+              arrays: dict[str, list[tuple[np.ndarray, float, float]]]) -> Soundings:
     info = np.array([q[:6] for q in pings], dtype=np.float64)
     counts = info[:, 5].astype(np.int64)
     if not any(q[6] for q in pings):
         raise Datagrams(path, b"").fail("the pings have no across-track distances: the soundings "
                                         "cannot be placed (not georeferenceable)")
-    a = {k: np.concatenate(v) if v else np.zeros(0) for k, v in arrays.items()}
+    a = {k: _scaled(v, counts) for k, v in arrays.items()}
     rep = np.repeat(np.arange(len(pings)), counts)
     along = np.nan_to_num(a["along"], nan=0.0)
     lat, lon = offsets_to_geographic(info[rep, 1], info[rep, 2], info[rep, 3], along, a["across"])

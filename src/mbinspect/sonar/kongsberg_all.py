@@ -141,9 +141,9 @@ def _assemble(path: str, order: str, pings: list[tuple], beams: list[dict[str, n
     active = (p[:, 4].astype(np.int64) & 0x80) != 0
     if active.any():
         p = p[active]
-    pt = _seconds(p[:, 0], p[:, 1])
-    keep = np.r_[True, np.diff(pt) > 0] if len(pt) > 1 else np.ones(len(pt), bool)
-    pt, plat, plon = pt[keep], p[keep, 2], p[keep, 3]
+    # positions in time order, one per instant (a file may repeat or interleave them)
+    pt, first = np.unique(_seconds(p[:, 0], p[:, 1]), return_index=True)
+    plat, plon = p[first, 2], p[first, 3]
     info = np.array([q[:5] for q in pings], dtype=np.float64)
     counts = np.array([q[5] for q in pings])
     t = _seconds(info[:, 0], info[:, 1])
