@@ -164,7 +164,8 @@ def _cmd_info(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> i
     from .checks import positive
     from .io import describe
 
-    positive("cell", args.cell)
+    if args.cell is not None:
+        positive("cell", args.cell)
     _check_input(args)
     summary = describe(_read_input(args, rep), cell=args.cell)
     d = summary.to_dict()
@@ -183,8 +184,17 @@ def _cmd_info(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> i
         f"density     {summary.density:.1f} pts/m^2",
         f"spacing     {summary.spacing:.3f} m (median nearest neighbour, plan)",
     ]
-    if summary.crs:
-        lines.append(f"crs         {summary.crs[:70]}")
+    lines.append(f"crs         {summary.crs_name or (summary.crs or '(none)')[:70]}")
+    sonar = summary.sonar
+    if sonar:
+        what = ", ".join(str(sonar[k]) for k in ("format", "sonar", "version") if sonar.get(k))
+        lines.append(f"sonar       {what}; {sonar.get('pings')} pings")
+        if "beam_angle_range_deg" in sonar:
+            a0, a1 = sonar["beam_angle_range_deg"]
+            lines.append(f"beam angles {a0:.1f} .. {a1:.1f} deg")
+        if "time_span" in sonar:
+            lines.append(f"time        {sonar['time_span'][0]} .. {sonar['time_span'][1]} (UTC)")
+        lines.append(f"z level     {sonar.get('level')}")
     print("\n".join(lines))
     return 0
 
@@ -432,8 +442,9 @@ def build_parser() -> argparse.ArgumentParser:
              "example:\n  mbinspect info soundings.laz --json")
     _add_input(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
-    p.add_argument("--cell", type=typed_parser(float, "cell"), default=1.0, metavar="M",
-                   help="grid cell (m) for the covered area and density (default 1.0)")
+    p.add_argument("--cell", type=typed_parser(float, "cell"), default=None, metavar="M",
+                   help="grid cell (m) for the covered area and density (default: about three "
+                        "sounding spacings)")
     p.set_defaults(func=_cmd_info)
 
     p = _sub(sub, "simulate", "simulate a multibeam survey with exact truth",

@@ -907,7 +907,7 @@ def _write_npz(cloud: PointCloud, path: Path, precision: int) -> None:
 
 @dataclass(frozen=True)
 class CloudSummary:
-    """What ``mbinspect info`` prints: counts, extent, fields and density.
+    """What ``mbinspect info`` prints: counts, extent, fields, density and what the file says.
 
     Attributes
     ----------
@@ -920,7 +920,14 @@ class CloudSummary:
     density : float
         Mean points per covered m^2.
     spacing : float
-        Median 2-D distance to the nearest neighbour (m), on up to 200 000 points.
+        Median plan distance to the nearest other point (m), the neighbours searched among
+        all the points (a sample of up to 200 000 points is measured).
+    cell : float
+        The grid cell of ``area`` (m): given, or chosen from the spacing.
+    crs, crs_name : str or None
+        The CRS (WKT) and its name.
+    sonar : dict
+        For sonar files: format, sonar, pings, beam-angle range (deg), time span (UTC).
     """
 
     source: str | None
@@ -934,44 +941,103 @@ class CloudSummary:
     cell: float
     crs: str | None
     z_convention: str
+    crs_name: str | None = None
+    sonar: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
+        """The summary as JSON-ready values (``mbinspect info --json``)."""
         d = dataclasses_asdict(self)
         d["z_range"] = [self.bounds_min[2], self.bounds_max[2]]
         return d
 
 
-def describe(cloud: PointCloud, *, cell: float = 1.0, seed: int = 0) -> CloudSummary:
+def _nice_cell(spacing: float) -> float:
+    """A round grid cell (m) about three sounding spacings wide, at least 0.1 m."""
+    if not math.isfinite(spacing) or spacing <= 0:
+        return 1.0
+    target = max(0.1, 3.0 * spacing)
+    steps = np.array([1.0, 2.0, 5.0, 10.0])
+    base = 10.0 ** math.floor(math.log10(target))
+    return float(base * steps[np.searchsorted(steps, target / base - 1e-9)])
+
+
+def _sonar_summary(cloud: PointCloud) -> dict[str, Any]:
+    meta = dict(cloud.meta)
+    if meta.get("format") not in SONAR_FORMATS:
+        return {}
+    keys = ("format", "sonar", "version", "pings", "level")
+    out: dict[str, Any] = {k: meta.get(k) for k in keys if k in meta}
+    if "beam_angle" in cloud.fields and len(cloud):
+        a = cloud.fields["beam_angle"]
+        out["beam_angle_range_deg"] = [float(np.nanmin(a)), float(np.nanmax(a))]
+    if "time" in cloud.fields and len(cloud):
+        import datetime as dt
+
+        t = cloud.fields["time"]
+        out["time_span"] = [dt.datetime.fromtimestamp(float(v), dt.UTC).isoformat(timespec="seconds")
+                            for v in (np.nanmin(t), np.nanmax(t))]
+    return out
+
+
+def describe(cloud: PointCloud, *, cell: float | None = None, seed: int = 0) -> CloudSummary:
     """Summarise a cloud like ``pdal info`` or ``lasinfo`` do.
 
     Parameters
     ----------
     cloud : PointCloud
-    cell : float
-        Grid cell (m) used to measure the covered area; default 1.0.
+    cell : float, optional
+        Grid cell (m) used to measure the covered area; default about three sounding
+        spacings, rounded (so sparse deep data and dense shallow data both read right).
     seed : int
-        Seed of the subsample used for the nearest-neighbour spacing.
+        Seed of the sample of points whose nearest neighbour is measured.
+
+    Returns
+    -------
+    CloudSummary
+
+    Examples
+    --------
+    >>> g = np.arange(0.0, 10.0, 0.1)
+    >>> c = PointCloud(np.column_stack([np.repeat(g, 100), np.tile(g, 100), np.full(10_000, -20.0)]))
+    >>> s = describe(c)
+    >>> round(s.spacing, 3), s.cell, round(s.area), round(s.density)
+    (0.1, 0.5, 100, 100)
     """
     from scipy.spatial import cKDTree
 
-    if cell <= 0:
-        raise ParameterError(f"cell: {cell} must be positive")
+    from .checks import positive
+
+    if cell is not None:
+        positive("cell", cell)
     lo, hi = cloud.bounds()
-    ij = np.floor((cloud.xyz[:, :2] - lo[:2]) / cell).astype(np.int64)
-    keys = ij[:, 0] * (int((hi[1] - lo[1]) / cell) + 2) + ij[:, 1]
-    area = float(len(np.unique(keys))) * cell * cell
-    xy = cloud.xyz[:, :2]
-    if len(xy) > 200_000:
-        xy = xy[np.random.default_rng(seed).choice(len(xy), 200_000, replace=False)]
+    xy = cloud.xyz[:, :2] - lo[:2]
     spacing = float("nan")
     if len(xy) > 1:
-        d, _ = cKDTree(xy - lo[:2]).query(xy - lo[:2], k=2)
+        # the neighbours are searched among all points: a subsample's own neighbours lie
+        # several spacings apart and would overstate the spacing
+        tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)
+        sample = xy if len(xy) <= 200_000 else xy[np.random.default_rng(seed).choice(len(xy), 200_000,
+                                                                                     replace=False)]
+        d, _ = tree.query(sample, k=2, workers=-1)
         spacing = float(np.median(d[:, 1]))
+    used = cell if cell is not None else _nice_cell(spacing)
+    ij = np.floor(xy / used).astype(np.int64)
+    keys = ij[:, 0] * (int((hi[1] - lo[1]) / used) + 2) + ij[:, 1]
+    area = float(len(np.unique(keys))) * used * used
+    crs_name = None
+    if cloud.crs:
+        try:
+            from pyproj import CRS
+
+            crs_name = CRS.from_user_input(cloud.crs).name
+        except Exception:
+            crs_name = None
     return CloudSummary(
         source=cloud.source, n_points=len(cloud),
         bounds_min=tuple(float(v) for v in lo), bounds_max=tuple(float(v) for v in hi),  # type: ignore[arg-type]
         fields=tuple(cloud.fields), area=area, density=len(cloud) / area, spacing=spacing,
-        cell=cell, crs=cloud.crs, z_convention=cloud.z_convention,
+        cell=used, crs=cloud.crs, z_convention=cloud.z_convention, crs_name=crs_name,
+        sonar=_sonar_summary(cloud),
     )
 
 
