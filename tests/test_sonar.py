@@ -99,3 +99,46 @@ def test_format_flag_and_rejected_soundings(tmp_path, capsys):
     assert '"n_points": 1728' in capsys.readouterr().out
     assert main(["info", str(odd), "--format", "gsf", "--depth-positive"]) == 2
     assert "--depth-positive: given for the gsf file" in capsys.readouterr().err
+
+
+def test_the_crs_reaches_every_output(tmp_path, capsys):
+    import json
+
+    from mbinspect.io import write
+
+    cloud = read(DATA / "Belgica_0077.all")
+    las = tmp_path / "belgica.laz"
+    write(cloud, las)
+    back = read(las)
+    from pyproj import CRS
+
+    assert CRS.from_user_input(back.crs).to_epsg() == 32631
+    out = tmp_path / "reefs"
+    assert main(["reefs", str(DATA / "Belgica_0077.all"), "--out", str(out), "--no-figures"]) == 0
+    d = json.loads((out / "reefs.json").read_text())
+    assert CRS.from_user_input(d["parameters"]["input"]["crs"]).to_epsg() == 32631
+    assert "WGS 84 / UTM zone 31N (EPSG:32631)" in (out / "report.html").read_text()
+    geo = json.loads((out / "reefs.geojson").read_text())
+    assert "crs_note" not in geo
+    capsys.readouterr()
+
+
+def test_piles_geojson_is_longitude_latitude_with_a_crs(tmp_path, jacket_small):
+    import json
+
+    from mbinspect.io import write
+
+    src = tmp_path / "jacket.xyz"
+    write(jacket_small.cloud, src)
+    out = tmp_path / "piles"
+    code = main(["piles", str(src), "--radius", "0.75", "--count", "4", "--crs", "EPSG:32650",
+                 "--out", str(out), "--no-figures"])
+    assert code in (0, 3)
+    geo = json.loads((out / "piles.geojson").read_text())
+    lon, lat = geo["features"][0]["geometry"]["coordinates"]
+    assert 114 < lon < 120 and 30 < lat < 32  # zone 50N, northing 3.46 Mm
+    bare = tmp_path / "bare"
+    code = main(["piles", str(src), "--radius", "0.75", "--count", "4", "--out", str(bare), "--no-figures"])
+    assert code in (0, 3)
+    geo = json.loads((bare / "piles.geojson").read_text())
+    assert "crs_note" in geo and geo["features"][0]["geometry"]["coordinates"][0] > 500_000

@@ -862,6 +862,10 @@ def _write_las(cloud: PointCloud, path: Path, precision: int) -> None:
     for name, values in extra.items():
         kind = np.float64 if np.asarray(values).dtype.kind == "f" else np.int32
         header.add_extra_dim(laspy.ExtraBytesParams(name=name, type=kind))
+    if cloud.crs:
+        from pyproj import CRS
+
+        header.add_crs(CRS.from_user_input(cloud.crs))
     las = laspy.LasData(header)
     las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
     if "intensity" in cloud.fields:

@@ -331,7 +331,17 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     # with both methods, both methods' piles: one row per pile and method
     write_table(d["piles"] + d["other_piles"], out / "piles.csv", _PILE_COLS)
     write_table(d["spacings"], out / "spacings.csv", _SPACING_COLS)
-    written = ["piles.json", "piles.csv", "spacings.csv"]
+    to_lonlat = lonlat_transform(crs_of(result))
+    features = []
+    for p in d["piles"] + d["other_piles"]:
+        xy = [p["x"], p["y"]]
+        if to_lonlat is not None:
+            xy = [float(v[0]) for v in to_lonlat(np.array([p["x"]]), np.array([p["y"]]))]
+        features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": xy},
+                         "properties": {c: p.get(c) for c in _PILE_COLS if c != "flags"}
+                         | {"flags": "; ".join(p.get("flags", []))}})
+    write_geojson(features, out / "piles.geojson", lonlat=to_lonlat is not None)
+    written = ["piles.json", "piles.csv", "spacings.csv", "piles.geojson"]
     images: dict[str, bytes] = {}
     if figures:
         images = pile_figures(result, points, out)
@@ -341,6 +351,7 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     if result.warnings:
         sections.append(("Warnings", "<ul>" + "".join(f"<li class='warn'>{html.escape(w)}</li>"
                                                       for w in result.warnings) + "</ul>"))
+    sections.append(("Coordinates", f"<p>{html.escape(crs_label(result))}</p>"))
     sections.append(("Spacings (m)", html_table(d["spacings"], _SPACING_COLS, digits=4)))
     sections.append(("Piles (top centre, m)", html_table(d["piles"], _PILE_COLS, digits=4)))
     if d["other_piles"]:
@@ -360,6 +371,66 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
         tmp.write_text(page, encoding="utf-8")
     written.append("report.html")
     return written
+
+
+def crs_of(result: Any) -> str | None:
+    """The CRS (WKT) of a result's coordinates, as its input gave it, or None."""
+    crs: str | None = result.parameters.get("input", {}).get("crs")
+    return crs
+
+
+def crs_label(result: Any) -> str:
+    """A line naming a result's CRS, or saying there is none."""
+    crs = crs_of(result)
+    if crs is None:
+        return "the input's own coordinates (no CRS given: give --crs to place them on a map)"
+    from pyproj import CRS
+
+    c = CRS.from_user_input(crs)
+    return f"{c.name}" + (f" (EPSG:{c.to_epsg()})" if c.to_epsg() else "")
+
+
+def lonlat_transform(crs: str | None) -> Any:
+    """``f(x, y) -> (lon, lat)`` from ``crs`` to WGS 84, or None without a CRS.
+
+    Parameters
+    ----------
+    crs : str or None
+        WKT or any CRS pyproj accepts.
+
+    Returns
+    -------
+    callable or None
+    """
+    if crs is None:
+        return None
+    from pyproj import Transformer
+
+    return Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform
+
+
+def write_geojson(features: list[dict[str, Any]], path: Path, *, lonlat: bool) -> None:
+    """A GeoJSON FeatureCollection, atomically.
+
+    With ``lonlat`` the coordinates are WGS 84 longitude and latitude, as RFC 7946 says; a
+    GIS places them without being told. Without it (no CRS known) they are the input's own
+    coordinates, and the file says so in a ``crs_note`` member.
+
+    Parameters
+    ----------
+    features : list of dict
+    path : Path
+    lonlat : bool
+    """
+    import json
+
+    from .outputs import to_jsonable
+
+    doc: dict[str, Any] = {"type": "FeatureCollection", "features": features}
+    if not lonlat:
+        doc["crs_note"] = "coordinates in the input's own (unknown) CRS, not WGS 84"
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(to_jsonable(doc)) + "\n", encoding="utf-8")
 
 
 def json_dumps(obj: Any) -> str:
@@ -492,9 +563,8 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     list of str
         The files written.
     """
-    import json
 
-    from .outputs import to_jsonable, write_json, write_table
+    from .outputs import write_json, write_table
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -502,15 +572,16 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     write_json(d, out / "reefs.json")
     cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else [])
     write_table(d["reefs"], out / "reefs.csv", cols)
+    to_lonlat = lonlat_transform(crs_of(result))
     features = []
     for r in d["reefs"]:
         ring = r["outline"] + r["outline"][:1] if r["outline"] else []
+        if ring and to_lonlat is not None:
+            ring = [list(p) for p in zip(*to_lonlat(*np.asarray(ring, np.float64).T), strict=True)]
         features.append({"type": "Feature",
                          "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
                          "properties": {c: r[c] for c in cols}})
-    with atomic_path(out / "reefs.geojson") as tmp:
-        tmp.write_text(json.dumps(to_jsonable({"type": "FeatureCollection", "features": features})),
-                       encoding="utf-8")
+    write_geojson(features, out / "reefs.geojson", lonlat=to_lonlat is not None)
     written = ["reefs.json", "reefs.csv", "reefs.geojson"]
     images = reef_figures(result, points, out) if figures else {}
     written += [f"{n}.png" for n in images]
@@ -519,7 +590,8 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     if result.warnings:
         sections.append(("Warnings", "<ul>" + "".join(f"<li class='warn'>{html.escape(w)}</li>"
                                                       for w in result.warnings) + "</ul>"))
-    summary = [{"item": "reefs", "value": len(d["reefs"])},
+    summary: list[dict[str, Any]] = [{"item": "coordinates", "value": crs_label(result)},
+               {"item": "reefs", "value": len(d["reefs"])},
                {"item": "groups", "value": len(d["groups"])},
                {"item": "other objects (< min area)", "value": len(d["others"])},
                {"item": "seabed model", "value": d["seabed"].get("method")},

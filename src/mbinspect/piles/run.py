@@ -108,7 +108,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
         other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre")
     report(1.0)
     parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
-                  "input": {"source": cloud.source, "n_points": len(pts)},
+                  "input": {"source": cloud.source, "n_points": len(pts), "crs": cloud.crs},
                   "software": f"mbinspect {__version__}"}
     return PileResult(piles, pairs, tuple(iterations), parameters, tuple(warnings + warn),
                       {remap[k]: v for k, v in segs.items()}, seabed,

@@ -128,7 +128,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
         warnings += warn
         ref_xy = np.asarray(reference[0])
     report(1.0)
-    parameters = {**opts.to_dict(), "input": {"source": cloud.source, "n_points": len(pts)},
+    parameters = {**opts.to_dict(), "input": {"source": cloud.source, "n_points": len(pts), "crs": cloud.crs},
                   "software": f"mbinspect {__version__}"}
     return ReefResult(tuple(reefs), tuple(groups), tuple(others), seabed_info, filters, evaluation,
                       parameters, tuple(warnings), ground.region, surf, {"reef_area_used": used_area}, ref_xy)
