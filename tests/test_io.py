@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
+from mbinspect import ascii as mascii
 from mbinspect import io as mio
 from mbinspect.checks import check_points
 from mbinspect.errors import FileAccessError, InputError, ParameterError
@@ -90,7 +91,7 @@ def test_parallel_chunks_give_the_same_answer_and_locate_errors(tmp_path, monkey
     table = rng.uniform(-20, 20, (3000, 3)).round(3)
     p = tmp_path / "big.xyz"
     np.savetxt(p, table, fmt="%.3f")
-    monkeypatch.setattr(mio, "_PARALLEL_BYTES", 1000)
+    monkeypatch.setattr(mascii, "PARALLEL_BYTES", 1000)
     np.testing.assert_allclose(read(p).xyz, table)
     lines = p.read_text().splitlines()
     lines[2500] = "1.0 abc 2.0"

@@ -108,6 +108,9 @@ def _add_input(p: argparse.ArgumentParser) -> None:
                    help="sonar files (GSF, KMALL, .all): the projected CRS to put the soundings in "
                         "(default: the UTM zone of the data); other files: the CRS of their "
                         "coordinates when the file does not say it (e.g. EPSG:32631)")
+    g.add_argument("--decimal", choices=[".", ","], help="ASCII decimal mark (default: sniffed)")
+    g.add_argument("--z-up", action="store_true",
+                   help="z in the file is elevation, positive up (settles a mostly positive z)")
     g.add_argument("--keep-rejected", action="store_true",
                    help="sonar files: keep the soundings the sonar or the file rejected (field 'valid')")
 
@@ -132,7 +135,7 @@ def _read_input(args: argparse.Namespace, rep: Reporter) -> Any:
     t = time.perf_counter()
     cloud = read(args.input, format=args.format, columns=args.columns,
                  depth_positive=args.depth_positive, delimiter=args.delimiter, crs=args.crs,
-                 keep_rejected=args.keep_rejected)
+                 keep_rejected=args.keep_rejected, decimal=args.decimal, z_up=args.z_up)
     rep.debug(f"read {len(cloud):,} points from {args.input} in {time.perf_counter() - t:.2f} s")
     return cloud
 
@@ -513,7 +516,8 @@ def _flag_of(args: argparse.Namespace | None, option: str) -> str:
 
     flags = {"out": "--out", "cell": "--cell", "columns": "--columns", "delimiter": "--delimiter",
              "format": "--format", "seed": "--seed", "design": "--design", "overwrite": "--overwrite",
-             "crs": "--crs", "keep_rejected": "--keep-rejected",
+             "crs": "--crs", "keep_rejected": "--keep-rejected", "z_up": "--z-up",
+             "decimal": "--decimal",
              "force": "--force", "depth_positive": "--depth-positive"}
     command = getattr(args, "command", None)
     if command in ("piles", "demo"):
@@ -572,7 +576,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     from .interrupt import exit_status
 
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = _join_dash_values(list(sys.argv[1:] if argv is None else argv))
     args = None
     try:
         with _one_line_warnings():
@@ -600,6 +604,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         print(f"mbinspect: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_IO
+
+
+def _join_dash_values(argv: list[str]) -> list[str]:
+    """``--columns -,x,y,z`` as ``--columns=-,x,y,z``: argparse takes a value starting with
+    '-' for a flag, and column maps and crops (negative coordinates) often start so."""
+    out: list[str] = []
+    skip = False
+    for k, a in enumerate(argv):
+        if skip:
+            skip = False
+            continue
+        if a in ("--columns", "--crop") and k + 1 < len(argv) and argv[k + 1].startswith("-") \
+                and argv[k + 1] not in ("-h", "--help"):
+            out.append(f"{a}={argv[k + 1]}")
+            skip = True
+        else:
+            out.append(a)
+    return out
 
 
 def _silence_stdout() -> None:

@@ -15,6 +15,7 @@ __all__ = [
     "NotEnoughPointsError",
     "FileAccessError",
     "DataError",
+    "InputWarning",
 ]
 
 
@@ -48,3 +49,7 @@ class NotEnoughPointsError(MBInspectError, ValueError):
 
 class DataError(MBInspectError, ValueError):
     """The data are well formed but cannot support the answer asked for."""
+
+
+class InputWarning(UserWarning):
+    """A doubt about an input file that does not stop the read (the CLI prints one line)."""

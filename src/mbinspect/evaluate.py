@@ -133,6 +133,18 @@ def match_points(detected: np.ndarray, reference: np.ndarray, *, tolerance: floa
         reference_ids=tuple(reference_ids))
 
 
+#: Reference header names understood (after units and quotes are dropped).
+_REF_NAMES = {"x": "x", "easting": "x", "east": "x", "e": "x", "y": "y", "northing": "y", "north": "y",
+              "n": "y", "id": "id", "name": "id", "label": "id", "reef": "id", "number": "id"}
+
+
+def _plain(cell: str) -> str:
+    """A header cell in lower case without quotes and units (``Easting (m)`` -> ``easting``)."""
+    import re
+
+    return re.sub(r"\s*[\(\[].*?[\)\]]\s*", "", cell.strip().strip('"')).strip().lower()
+
+
 def read_reference(path: str | Path) -> tuple[np.ndarray, tuple[Any, ...]]:
     """Read a reference CSV of ``x, y[, id]`` (a header row is optional).
 
@@ -163,7 +175,7 @@ def read_reference(path: str | Path) -> tuple[np.ndarray, tuple[Any, ...]]:
     xy: list[tuple[float, float]] = []
     ids: list[Any] = []
     cols = (0, 1, 2)
-    with open(p, newline="", encoding="utf-8") as fh:
+    with open(p, newline="", encoding="utf-8-sig") as fh:  # Excel's "CSV UTF-8" starts with a BOM
         sample = fh.read(4096)
         fh.seek(0)
         delim = ";" if sample.count(";") > sample.count(",") else ("\t" if "\t" in sample and
@@ -175,7 +187,7 @@ def read_reference(path: str | Path) -> tuple[np.ndarray, tuple[Any, ...]]:
                 continue
             if first:
                 first = False
-                low = [c.lower() for c in cells]
+                low = [_REF_NAMES.get(_plain(c), _plain(c)) for c in cells]
                 if "x" in low and "y" in low:
                     cols = (low.index("x"), low.index("y"), low.index("id") if "id" in low else -1)
                     continue

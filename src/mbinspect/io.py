@@ -30,19 +30,18 @@ Examples
 
 from __future__ import annotations
 
-import io as _io
 import json
 import math
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import FileAccessError, InputError, NotEnoughPointsError, ParameterError
+from .ascii import DELIMITERS, DEPTH_NAMES, ELEVATION_NAMES, parse_columns, read_ascii
+from .errors import FileAccessError, InputError, InputWarning, NotEnoughPointsError, ParameterError
 from .outputs import atomic_path, dataclasses_asdict
 
 __all__ = [
@@ -76,34 +75,6 @@ FORMAT_ALIASES: dict[str, str] = {"laz": "las", "ascii": "xyz", "txt": "xyz", "c
 
 #: Every name ``format=`` accepts.
 FORMAT_NAMES: tuple[str, ...] = ("xyz", "las", "laz", "ply", "npz", "gsf", "kmall", "all")
-
-#: ASCII delimiters ``delimiter=`` accepts, and the character each stands for (None: any run
-#: of whitespace).
-DELIMITERS: dict[str, str | None] = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "space": None,
-                                     " ": None, "whitespace": None}
-
-#: Raised through :mod:`warnings` for doubts about an input that do not stop the read.
-class InputWarning(UserWarning):
-    """A doubt about an input file that does not stop the read (the CLI prints one line)."""
-
-
-# Header names understood in ASCII files, mapped to the canonical field names.
-_ALIASES: dict[str, str] = {
-    "x": "x", "easting": "x", "east": "x", "e": "x", "lon": "x", "longitude": "x",
-    "y": "y", "northing": "y", "north": "y", "n": "y", "lat": "y", "latitude": "y",
-    "z": "z", "elevation": "z", "height": "z", "h": "z", "depth": "z", "d": "z",
-    "intensity": "intensity", "backscatter": "intensity", "bs": "intensity",
-    "amplitude": "intensity", "reflectivity": "intensity", "i": "intensity",
-    "beam_angle": "beam_angle", "angle": "beam_angle", "beam": "beam_angle",
-    "scan_angle": "beam_angle",
-    "line": "line", "line_id": "line", "linename": "line", "line_name": "line",
-    "ping": "ping", "ping_id": "ping", "ping_number": "ping",
-    "classification": "classification", "class": "classification",
-}
-_DEPTH_NAMES = {"depth", "d"}
-
-# Files above this size are parsed in parallel chunks (one per core).
-_PARALLEL_BYTES = 16 * 2**20
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,53 +189,6 @@ def format_from_path(path: str | os.PathLike[str], format: str | None = None) ->
     )
 
 
-def parse_columns(spec: str | Sequence[str]) -> list[str | None]:
-    """Parse a column map such as ``"x,y,z,intensity"`` or ``"x,y,-,depth"``.
-
-    ``-`` (or ``skip``) skips a column. Names are the canonical fields or any alias
-    (``easting``, ``backscatter`` ...); other names are kept as extra fields.
-
-    Parameters
-    ----------
-    spec : str or sequence of str
-        Comma-separated names, one per column.
-
-    Returns
-    -------
-    list of str or None
-        The field of each column; None for a skipped one.
-
-    Raises
-    ------
-    ParameterError
-        Not exactly one x, y and z, or a name twice (``option="columns"``).
-
-    Examples
-    --------
-    >>> parse_columns("easting,northing,-,depth")
-    ['x', 'y', None, 'z']
-    """
-    items = spec.split(",") if isinstance(spec, str) else list(spec)
-    out: list[str | None] = []
-    for raw in items:
-        name = raw.strip().lower()
-        if name in ("-", "skip", "_", ""):
-            out.append(None)
-        else:
-            out.append(_ALIASES.get(name, name))
-    present = [c for c in out if c is not None]
-    for axis in ("x", "y", "z"):
-        if present.count(axis) != 1:
-            raise ParameterError(
-                f"columns: {','.join(items)!r}; expected exactly one {axis!r} column", option="columns"
-            )
-    dup = {c for c in present if present.count(c) > 1}
-    if dup:
-        raise ParameterError(f"columns: {sorted(dup)[0]!r} named twice; expected each column once",
-                             option="columns")
-    return out
-
-
 # --------------------------------------------------------------------------- reading
 
 
@@ -318,6 +242,8 @@ def read(
     delimiter: str | None = None,
     crs: str | None = None,
     keep_rejected: bool = False,
+    decimal: str | None = None,
+    z_up: bool = False,
 ) -> PointCloud:
     """Read a point cloud file.
 
@@ -344,6 +270,13 @@ def read(
     keep_rejected : bool
         Sonar formats: keep the soundings the sonar or the file rejected (the ``valid``
         field says which); default False.
+    decimal : {".", ","}, optional
+        ASCII only: the decimal mark; default sniffed (``554845,028;...`` has commas).
+    z_up : bool
+        The file's z is elevation, positive up. With neither this nor ``depth_positive``, a
+        file whose z is mostly positive under a header that does not say which (``z``, or
+        none) is read as given but marked doubtful (``meta["z_doubt"]``); the pipelines
+        refuse such a cloud.
 
     Returns
     -------
@@ -374,8 +307,9 @@ def read(
 
             return to_cloud(read_sonar(p, fmt), crs=crs, keep_rejected=keep_rejected)
         if fmt == "xyz":
-            cloud = _read_ascii(p, columns=columns, delimiter=delimiter,
-                                depth_positive=depth_positive)
+            cloud = _read_ascii(p, columns=columns, delimiter=delimiter, decimal=decimal,
+                                depth_positive=depth_positive, z_up=z_up, crs=crs)
+            crs = None if cloud.meta.get("geographic") else crs
         elif fmt == "las":
             cloud = _read_las(p)
         elif fmt == "ply":
@@ -402,6 +336,49 @@ def read(
     return cloud
 
 
+def _looks_geographic(xyz: np.ndarray) -> bool:
+    """Longitude and latitude without a header: degree ranges spanning under a degree."""
+    if len(xyz) < 3:
+        return False
+    x, y = xyz[:, 0], xyz[:, 1]
+    return bool(np.abs(x).max() <= 180 and np.abs(y).max() <= 90 and np.ptp(x) < 1 and np.ptp(y) < 1
+                and (np.ptp(x) > 0 or np.ptp(y) > 0))
+
+
+def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str | None, decimal: str | None,
+                depth_positive: bool, z_up: bool, crs: str | None) -> PointCloud:
+    """An ASCII file as a cloud: geographic files projected, doubts about z said."""
+    import warnings
+
+    if decimal not in (None, ".", ","):
+        raise ParameterError(f"decimal: {decimal!r}; expected '.' or ','", option="decimal")
+    xyz, fields, table = read_ascii(p, columns=columns, delimiter=delimiter, decimal=decimal)
+    meta: dict[str, Any] = {"format": "xyz", "z_name": table.z_name}
+    geographic = table.geographic or (table.header is None and columns is None and _looks_geographic(xyz))
+    if table.z_name in DEPTH_NAMES and not (depth_positive or z_up):
+        # the header says depth: still never flip silently, but say so once.
+        warnings.warn(f"{p}: the header names a depth column; z is read as given, as elevation (give "
+                      "`depth_positive` if it is positive down)", InputWarning, stacklevel=3)
+    settled = depth_positive or z_up or table.z_name in ELEVATION_NAMES | DEPTH_NAMES
+    if not settled and np.mean(xyz[:, 2] > 0) > 0.5:
+        meta["z_doubt"] = (f"{p}: most z values are positive and nothing says whether they are depths or "
+                           "elevations; give `depth_positive` for depths (positive down) or `z_up` for "
+                           "elevations")
+        warnings.warn(meta["z_doubt"], InputWarning, stacklevel=3)
+    out_crs = None
+    if geographic:
+        from .sonar.common import project_lonlat
+
+        x, y, out_crs, name = project_lonlat(xyz[:, 0], xyz[:, 1], crs)
+        why = "the header names latitude and longitude" if table.geographic else \
+            "x and y lie within degree ranges spanning under a degree"
+        warnings.warn(f"{p}: read as longitude and latitude ({why}); projected to {name}", InputWarning,
+                      stacklevel=3)
+        xyz = np.column_stack([x, y, xyz[:, 2]])
+        meta["geographic"] = True
+    return PointCloud(xyz, fields, source=str(p), crs=out_crs, meta=meta)
+
+
 def _declare_crs(cloud: PointCloud, crs: str) -> PointCloud:
     """The cloud with ``crs`` as the CRS of its coordinates (checked by pyproj)."""
     from pyproj import CRS
@@ -416,261 +393,6 @@ def _declare_crs(cloud: PointCloud, crs: str) -> PointCloud:
                              "expected no crs for a file that has one (reprojection is not done here)",
                              option="crs")
     return replace(cloud, crs=given.to_wkt())
-
-
-@dataclass(frozen=True)
-class _AsciiLayout:
-    delimiter: str | None  # None = runs of whitespace
-    names: list[str | None]  # field per column (None = skip)
-    ncols: int  # columns per data line, before any trailing delimiter
-    trailing: bool  # every data line ends with a delimiter
-    data_start: int  # byte offset of the first data line
-    first_line: int  # 1-based line number of the first data line
-
-
-def _split(line: str, delimiter: str | None) -> list[str]:
-    if delimiter is None:
-        return line.split()
-    return [c.strip() for c in line.split(delimiter)]
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
-
-
-def _sniff_ascii(
-    path: Path, columns: str | Sequence[str] | None, delimiter: str | None, *,
-    depth_positive: bool = False,
-) -> _AsciiLayout:
-    offset = 0
-    lineno = 0
-    header: list[str] | None = None
-    with open(path, "rb") as fh:
-        for raw in fh:
-            lineno += 1
-            try:
-                line = raw.decode("utf-8-sig" if lineno == 1 else "utf-8")
-            except UnicodeDecodeError:
-                raise InputError(
-                    f"{path}, line {lineno}: not text (undecodable bytes); "
-                    "expected an ASCII point file"
-                ) from None
-            stripped = line.strip()
-            if not stripped or stripped.startswith("#"):
-                offset += len(raw)
-                continue
-            if delimiter is None:
-                for cand in (",", ";", "\t"):
-                    if cand in stripped:
-                        delimiter = cand if cand != "\t" else None
-                        break
-            cells = _split(stripped, delimiter)
-            trailing = len(cells) > 1 and cells[-1] == ""
-            if trailing:
-                cells = cells[:-1]
-            if header is None and not all(_is_number(c) for c in cells if c):
-                header = [c.strip().strip('"').strip("'") for c in cells]
-                offset += len(raw)
-                continue
-            ncols = len(cells)
-            break
-        else:
-            raise InputError(f"{path}: no data lines (only comments, blank lines or a header)")
-    # decide what the columns hold
-    if columns is not None:
-        names = parse_columns(columns)
-        if len(names) != ncols:
-            raise InputError(
-                f"{path}, line {lineno}: {ncols} columns, but `columns` names {len(names)}"
-            )
-    elif header is not None:
-        if len(header) != ncols:
-            raise InputError(
-                f"{path}, line {lineno}: {ncols} columns, but the header names {len(header)}"
-            )
-        names = [_ALIASES.get(h.lower(), h.lower()) for h in header]
-        missing = [a for a in ("x", "y", "z") if a not in names]
-        if missing:
-            raise InputError(
-                f"{path}, header: no column for {', '.join(missing)} in {header}; "
-                "name them (x,y,z / easting,northing,depth) or give `columns`"
-            )
-        if any(h.lower() in _DEPTH_NAMES for h in header) and not depth_positive:
-            # the header says depth: still never flip silently, but say so once.
-            import warnings
-
-            warnings.warn(
-                f"{path}: the header names a depth column; z is read as given, as elevation "
-                "(give `depth_positive` if it is positive down)",
-                InputWarning, stacklevel=3,
-            )
-    elif ncols == 3:
-        names = ["x", "y", "z"]
-    elif ncols == 4:
-        names = ["x", "y", "z", "intensity"]
-    elif ncols < 3:
-        raise InputError(
-            f"{path}, line {lineno}: {ncols} column{'s' if ncols != 1 else ''}; "
-            "expected at least 3 (x y z)"
-        )
-    else:
-        raise InputError(
-            f"{path}, line {lineno}: {ncols} columns and no header; "
-            "give `columns` (e.g. x,y,z,intensity,-) to say which is which"
-        )
-    return _AsciiLayout(delimiter, names, ncols, trailing, offset, lineno)
-
-
-def _parse_chunk(args: tuple[str, int, int, str | None, int, bool]) -> np.ndarray | str:
-    path, start, stop, delimiter, ncols, trailing = args
-    with open(path, "rb") as fh:
-        fh.seek(start)
-        data = fh.read(stop - start)
-    try:
-        with _quiet_empty():
-            arr = np.loadtxt(
-                _io.BytesIO(data),
-                delimiter=delimiter,
-                comments="#",
-                dtype=np.float64,
-                ndmin=2,
-                usecols=range(ncols) if trailing else None,
-                encoding="utf-8",
-            )
-    except ValueError as exc:
-        return str(exc)
-    if arr.size == 0:
-        return np.empty((0, ncols))
-    if arr.shape[1] != ncols:
-        return f"the number of columns changed from {ncols} to {arr.shape[1]}"
-    return arr
-
-
-@contextmanager
-def _quiet_empty() -> Iterator[None]:
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=".*input contained no data.*")
-        yield
-
-
-def _chunk_bounds(path: Path, start: int, parts: int) -> list[tuple[int, int]]:
-    size = path.stat().st_size
-    cuts = [start]
-    with open(path, "rb") as fh:
-        for k in range(1, parts):
-            fh.seek(start + (size - start) * k // parts)
-            fh.readline()
-            cuts.append(max(fh.tell(), cuts[-1]))
-    cuts.append(size)
-    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
-
-
-def _data_lines(path: Path, layout: _AsciiLayout) -> Iterator[tuple[int, list[str]]]:
-    """Each data line of an ASCII file as (1-based line number, cells); slow, for errors."""
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            stripped = line.strip()
-            if lineno < layout.first_line or not stripped or stripped.startswith("#"):
-                continue
-            cells = _split(stripped, layout.delimiter)
-            if layout.trailing and cells and cells[-1] == "":
-                cells = cells[:-1]
-            yield lineno, cells
-
-
-def _locate_ascii_error(path: Path, layout: _AsciiLayout) -> str:
-    """Describe the first bad line exactly (column count or a non-number)."""
-    for lineno, cells in _data_lines(path, layout):
-        if len(cells) != layout.ncols:
-            return (f"{path}, line {lineno}: {len(cells)} columns, expected {layout.ncols} "
-                    "like the lines before")
-        for col, cell in enumerate(cells, start=1):
-            if not _is_number(cell):
-                return f"{path}, line {lineno}, column {col}: {cell!r} is not a number"
-    return f"{path}: could not be parsed as a {layout.ncols}-column point file"
-
-
-def _worker_init() -> None:
-    """A reader worker ignores Ctrl-C (the main process handles it and ends the workers)
-    and, on Linux, is killed when the main process dies, however it dies."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    # the command line blocks both in its main thread; a worker must die on SIGTERM
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux: the main process still ends the workers
-        pass
-
-
-def _parse_parallel(chunks: list[tuple[str, int, int, str | None, int, bool]]
-                    ) -> list[np.ndarray | str]:
-    """Parse chunks in worker processes; on any error or interrupt the workers are killed
-    at once (no worker outlives the read, none prints a traceback)."""
-    import multiprocessing as mp
-
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    pool = ctx.Pool(len(chunks), initializer=_worker_init)
-    try:
-        results = pool.map(_parse_chunk, chunks, chunksize=1)
-        pool.close()
-        return results
-    finally:
-        pool.terminate()
-        pool.join()
-
-
-def _read_ascii(
-    path: Path, *, columns: str | Sequence[str] | None, delimiter: str | None,
-    depth_positive: bool = False,
-) -> PointCloud:
-    if delimiter is not None:
-        delimiter = DELIMITERS[delimiter.lower()]
-    layout = _sniff_ascii(path, columns, delimiter, depth_positive=depth_positive)
-    size = path.stat().st_size
-    cpus = os.cpu_count() or 1
-    parts = min(cpus, 8) if size - layout.data_start > _PARALLEL_BYTES else 1
-    chunks = [
-        (str(path), a, b, layout.delimiter, layout.ncols, layout.trailing)
-        for a, b in _chunk_bounds(path, layout.data_start, parts)
-    ]
-    results: list[np.ndarray | str]
-    if len(chunks) > 1:
-        results = _parse_parallel(chunks)
-    else:
-        results = [_parse_chunk(c) for c in chunks]
-    if any(isinstance(r, str) for r in results):
-        raise InputError(_locate_ascii_error(path, layout))
-    table = np.concatenate([r for r in results if not isinstance(r, str)], axis=0)
-    bad_rows = ~np.isfinite(table).all(axis=1)
-    if bad_rows.any():
-        raise InputError(_locate_nonfinite(path, layout, int(np.flatnonzero(bad_rows)[0])))
-    cols = {name: table[:, i] for i, name in enumerate(layout.names) if name is not None}
-    xyz = np.column_stack([cols.pop("x"), cols.pop("y"), cols.pop("z")])
-    return PointCloud(xyz, cols, source=str(path))
-
-
-def _locate_nonfinite(path: Path, layout: _AsciiLayout, row: int) -> str:
-    """Name the line and column of the first non-finite value (data row ``row``)."""
-    for seen, (lineno, cells) in enumerate(_data_lines(path, layout)):
-        if seen == row:
-            for col, cell in enumerate(cells, start=1):
-                if _is_number(cell) and not math.isfinite(float(cell)):
-                    return (f"{path}, line {lineno}, column {col}: {cell!r} is not a "
-                            "finite number; expected a finite value")
-            break
-    return f"{path}: data row {row + 1} holds a non-finite value"
 
 
 def _read_las(path: Path) -> PointCloud:
@@ -737,6 +459,9 @@ def _read_ply(path: Path) -> PointCloud:
             if words[0] == "format":
                 fmt = words[1] if len(words) > 1 else ""
             elif words[0] == "element" and len(words) == 3:
+                if not words[2].isdigit():
+                    raise InputError(f"{path}, line {lineno}: element {words[1]!r} count {words[2]!r}; "
+                                     "expected a whole number >= 0")
                 elements.append((words[1], int(words[2]), []))
             elif words[0] == "property":
                 if not elements:
@@ -766,6 +491,9 @@ def _read_ply(path: Path) -> PointCloud:
                     f"got {table.shape[0]} of {table.shape[1] if table.size else 0}"
                 )
             data = {n: table[:, i] for i, n in enumerate(names)}
+            if len(elements) == 1 and fh.read(4096).strip():
+                raise InputError(f"{path}: the header announces {count} vertices but more data follow; "
+                                 "expected the count of every vertex")
         elif fmt in ("binary_little_endian", "binary_big_endian"):
             order = "<" if fmt == "binary_little_endian" else ">"
             dtype = np.dtype([(n, order + t) for n, t in props])
@@ -776,6 +504,9 @@ def _read_ply(path: Path) -> PointCloud:
                     f"{len(buf) // dtype.itemsize} present"
                 )
             rec = np.frombuffer(buf, dtype=dtype, count=count)
+            if len(elements) == 1 and fh.read(1):
+                raise InputError(f"{path}: the header announces {count} vertices but more data follow; "
+                                 "expected the count of every vertex")
             data = {n: rec[n] for n in names}
         else:
             raise InputError(f"{path}: unknown PLY format {fmt!r}")

@@ -78,7 +78,7 @@ def read_design(path: str | Path) -> Design:
     if p.is_dir():
         raise FileAccessError(f"{p}: is a directory, expected a design CSV")
     rows: list[tuple[int, list[str]]] = []
-    with open(p, newline="", encoding="utf-8") as fh:
+    with open(p, newline="", encoding="utf-8-sig") as fh:  # Excel's "CSV UTF-8" starts with a BOM
         for lineno, row in enumerate(csv.reader(fh), start=1):
             cells = [c.strip() for c in row]
             if not any(cells) or cells[0].startswith("#"):

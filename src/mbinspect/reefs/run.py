@@ -73,6 +73,8 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     """
     opts = ReefOptions(**overrides) if options is None else options.replace(**overrides)
     cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
+    if cloud.meta.get("z_doubt"):
+        raise DataError(cloud.meta["z_doubt"])
     if opts.crop is not None:
         cloud = cloud.subset(crop_mask(cloud.xyz, opts.crop))
     pts = check_points(cloud.xyz, minimum=10)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 
-__all__ = ["Soundings", "to_cloud", "utm_crs", "offsets_to_geographic", "Datagrams"]
+__all__ = ["Soundings", "to_cloud", "utm_crs", "offsets_to_geographic", "project_lonlat", "Datagrams"]
 
 # WGS 84
 _A = 6378137.0
@@ -108,6 +108,51 @@ def utm_crs(lat: float, lon: float) -> str:
     return f"EPSG:{32600 + zone if lat >= 0 else 32700 + zone}"
 
 
+def _projected(target: str) -> Any:
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
+
+    try:
+        out = CRS.from_user_input(target)
+    except CRSError:
+        raise ParameterError(f"crs: {target!r}; expected a CRS such as EPSG:32631", option="crs") from None
+    if not out.is_projected or out.axis_info[0].unit_name not in ("metre", "meter"):
+        raise ParameterError(f"crs: {target!r}; expected a projected CRS in metres", option="crs")
+    return out
+
+
+def project_lonlat(lon: np.ndarray, lat: np.ndarray, crs: str | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, str, str]:
+    """Longitudes and latitudes (WGS 84) projected to ``crs`` (default: their UTM zone).
+
+    Parameters
+    ----------
+    lon, lat : ndarray
+        Degrees.
+    crs : str, optional
+        A projected CRS in metres.
+
+    Returns
+    -------
+    x, y : ndarray
+        Metres.
+    wkt, name : str
+        The CRS used.
+
+    Examples
+    --------
+    >>> x, y, wkt, name = project_lonlat(np.array([3.0]), np.array([51.0]))
+    >>> name, round(float(x[0])), round(float(y[0]))
+    ('WGS 84 / UTM zone 31N', 500000, 5649825)
+    """
+    from pyproj import Transformer
+
+    target = crs or utm_crs(float(np.median(lat)), float(np.median(lon)))
+    out = _projected(target)
+    x, y = Transformer.from_crs("EPSG:4326", out, always_xy=True).transform(lon, lat)
+    return np.asarray(x), np.asarray(y), out.to_wkt(), out.name
+
+
 def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: bool = False) -> Any:
     """Soundings projected to ``crs`` (default: the UTM zone of their mean position).
 
@@ -131,9 +176,6 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
     ParameterError
         A ``crs`` pyproj does not know or that is not projected in metres.
     """
-    from pyproj import CRS, Transformer
-    from pyproj.exceptions import CRSError
-
     from ..io import PointCloud
 
     s = soundings if keep_rejected else soundings.subset(soundings.fields["valid"].astype(bool))
@@ -141,19 +183,10 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
     if not ok.any():
         raise InputError(f"{s.meta.get('source')}: no sounding with a position")
     s = s.subset(ok) if not ok.all() else s
-    target = crs or utm_crs(float(np.median(s.lat)), float(np.median(s.lon)))
-    try:
-        out = CRS.from_user_input(target)
-    except CRSError:
-        raise ParameterError(f"crs: {target!r}; expected a CRS such as EPSG:32631", option="crs") from None
-    if not out.is_projected or out.axis_info[0].unit_name not in ("metre", "meter"):
-        raise ParameterError(f"crs: {target!r}; expected a projected CRS in metres", option="crs")
-    tr = Transformer.from_crs("EPSG:4326", out, always_xy=True)
-    x, y = tr.transform(s.lon, s.lat)
-    fields = {k: v for k, v in s.fields.items()}
-    meta = {**s.meta, "crs_name": out.name}
-    return PointCloud(np.column_stack([x, y, s.z]), fields, source=s.meta.get("source"),
-                      crs=out.to_wkt(), z_convention="elevation", meta=meta)
+    x, y, wkt, name = project_lonlat(s.lon, s.lat, crs)
+    meta = {**s.meta, "crs_name": name}
+    return PointCloud(np.column_stack([x, y, s.z]), dict(s.fields), source=s.meta.get("source"),
+                      crs=wkt, z_convention="elevation", meta=meta)
 
 
 class Datagrams:
