@@ -142,3 +142,16 @@ def test_piles_geojson_is_longitude_latitude_with_a_crs(tmp_path, jacket_small):
     assert code in (0, 3)
     geo = json.loads((bare / "piles.geojson").read_text())
     assert "crs_note" in geo and geo["features"][0]["geometry"]["coordinates"][0] > 500_000
+
+
+@pytest.mark.parametrize(("name", "pattern"), [
+    ("Belgica_0077.all", r"cut.all, byte \d+: a datagram of \d+ bytes; expected one that fits the file"),
+    ("gsf_EX1502L2_0175.gsf", r"cut.gsf, byte \d+: a GSF record of \d+ bytes runs past the end of the file"),
+])
+def test_truncated_files_name_the_record_and_byte(tmp_path, name, pattern):
+    data = (DATA / name).read_bytes()
+    cut = tmp_path / f"cut.{name.split('.')[-1]}"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    with pytest.raises(InputError, match=pattern):
+        read(cut)
+    assert read(DATA / name).fields["line"].max() == 0

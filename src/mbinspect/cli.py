@@ -191,7 +191,7 @@ def _cmd_info(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> i
     sonar = summary.sonar
     if sonar:
         what = ", ".join(str(sonar[k]) for k in ("format", "sonar", "version") if sonar.get(k))
-        lines.append(f"sonar       {what}; {sonar.get('pings')} pings")
+        lines.append(f"sonar       {what}; {sonar.get('pings')} pings, {sonar.get('lines', 1)} line(s)")
         if "beam_angle_range_deg" in sonar:
             a0, a1 = sonar["beam_angle_range_deg"]
             lines.append(f"beam angles {a0:.1f} .. {a1:.1f} deg")

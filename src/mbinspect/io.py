@@ -700,7 +700,7 @@ def _sonar_summary(cloud: PointCloud) -> dict[str, Any]:
     meta = dict(cloud.meta)
     if meta.get("format") not in SONAR_FORMATS:
         return {}
-    keys = ("format", "sonar", "version", "pings", "level")
+    keys = ("format", "sonar", "version", "pings", "lines", "level")
     out: dict[str, Any] = {k: meta.get(k) for k in keys if k in meta}
     if "beam_angle" in cloud.fields and len(cloud):
         a = cloud.fields["beam_angle"]

@@ -167,7 +167,8 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
     Returns
     -------
     PointCloud
-        x east, y north (m, in ``crs``), z elevation; the fields, and ``crs`` set.
+        x east, y north (m, in ``crs``), z elevation; the fields (with ``line`` 0: the
+        file), and ``crs`` set.
 
     Raises
     ------
@@ -184,8 +185,9 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
         raise InputError(f"{s.meta.get('source')}: no sounding with a position")
     s = s.subset(ok) if not ok.all() else s
     x, y, wkt, name = project_lonlat(s.lon, s.lat, crs)
-    meta = {**s.meta, "crs_name": name}
-    return PointCloud(np.column_stack([x, y, s.z]), dict(s.fields), source=s.meta.get("source"),
+    meta = {**s.meta, "crs_name": name, "lines": 1}
+    fields = {**s.fields, "line": np.zeros(len(s), np.int32)} if "line" not in s.fields else dict(s.fields)
+    return PointCloud(np.column_stack([x, y, s.z]), fields, source=s.meta.get("source"),
                       crs=wkt, z_convention="elevation", meta=meta)
 
 
