@@ -155,3 +155,16 @@ def test_truncated_files_name_the_record_and_byte(tmp_path, name, pattern):
     with pytest.raises(InputError, match=pattern):
         read(cut)
     assert read(DATA / name).fields["line"].max() == 0
+
+
+def test_reefs_on_a_narrow_real_strip_and_on_identical_points(tmp_path, capsys):
+    # a 1-2 m wide KMALL strip of Ostend harbour: the terrain screen once crashed on it
+    out = tmp_path / "strip"
+    assert main(["reefs", str(DATA / "ets_kmall_OS03_-4033476991022010987.kmall"), "--out", str(out),
+                 "--no-figures"]) == 0
+    assert "0 reefs" in capsys.readouterr().out
+    same = tmp_path / "same.xyz"
+    same.write_text("1 2 -10\n" * 10)
+    code = main(["reefs", str(same), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("mbinspect: error: ") and err.count("\n") == 1

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow", "coverage"]
+__all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow", "coverage",
+           "sounding_spacing"]
 
 
 def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
@@ -169,3 +170,41 @@ def coverage(points: np.ndarray, cell: float = 1.0) -> float:
     seen = np.zeros(nx * ny, dtype=bool)
     seen[i * ny + j] = True
     return float(seen.sum() / max(len(seen), 1))
+
+
+def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0, k: int = 1) -> float:
+    """The typical plan distance between neighbouring soundings (m).
+
+    The median distance from a seeded sample of soundings to their nearest other sounding,
+    searched among all of them (a subsample's own neighbours would lie farther apart).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2 or 3)
+    sample : int
+        Soundings measured.
+    seed : int
+    k : int
+        Measure the distance to the k-th nearest other sounding (1: the nearest).
+
+    Returns
+    -------
+    float
+        NaN for fewer than ``k + 1`` soundings; 0 when most sit on top of each other.
+
+    Examples
+    --------
+    >>> g = np.arange(0.0, 20.0, 0.5)
+    >>> sounding_spacing(np.column_stack([np.repeat(g, 40), np.tile(g, 40)]))
+    0.5
+    """
+    from scipy.spatial import cKDTree
+
+    xy = np.asarray(points, np.float64)[:, :2]
+    if len(xy) < k + 1:
+        return float("nan")
+    xy = xy - xy.min(axis=0)
+    tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)
+    pick = xy if len(xy) <= sample else xy[np.random.default_rng(seed).choice(len(xy), sample, replace=False)]
+    d, _ = tree.query(pick, k=k + 1, workers=-1)
+    return float(np.median(d[:, k]))

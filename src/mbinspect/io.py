@@ -738,23 +738,16 @@ def describe(cloud: PointCloud, *, cell: float | None = None, seed: int = 0) -> 
     >>> round(s.spacing, 3), s.cell, round(s.area), round(s.density)
     (0.1, 0.5, 100, 100)
     """
-    from scipy.spatial import cKDTree
-
     from .checks import positive
+    from .grid import sounding_spacing
 
     if cell is not None:
         positive("cell", cell)
     lo, hi = cloud.bounds()
     xy = cloud.xyz[:, :2] - lo[:2]
-    spacing = float("nan")
-    if len(xy) > 1:
-        # the neighbours are searched among all points: a subsample's own neighbours lie
-        # several spacings apart and would overstate the spacing
-        tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)
-        sample = xy if len(xy) <= 200_000 else xy[np.random.default_rng(seed).choice(len(xy), 200_000,
-                                                                                     replace=False)]
-        d, _ = tree.query(sample, k=2, workers=-1)
-        spacing = float(np.median(d[:, 1]))
+    # the neighbours are searched among all points: a subsample's own neighbours lie
+    # several spacings apart and would overstate the spacing
+    spacing = sounding_spacing(xy, sample=200_000, seed=seed)
     used = cell if cell is not None else _nice_cell(spacing)
     ij = np.floor(xy / used).astype(np.int64)
     keys = ij[:, 0] * (int((hi[1] - lo[1]) / used) + 2) + ij[:, 1]

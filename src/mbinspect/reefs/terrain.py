@@ -104,8 +104,11 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     coarse = z.reshape(nx // f, f, ny // f, f).mean(axis=(1, 3))
     seen = obs.reshape(nx // f, f, ny // f, f).any(axis=(1, 3))
     step = fine.cell * f
-    gx, gy = np.gradient(coarse, step)
-    slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    if min(coarse.shape) >= 2:
+        gx, gy = np.gradient(coarse, step)
+        slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+    else:  # a strip narrower than two judging cells: no slope can be measured across it
+        slope = np.zeros_like(coarse)
     detail = z - ndimage.gaussian_filter(z, 2.0 / fine.cell, mode="nearest")
     rough = np.sqrt((detail**2).reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)))
     # rocks narrower than the opening window vanish from the surface: measure the soundings
