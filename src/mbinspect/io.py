@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from .ascii import DELIMITERS, DEPTH_NAMES, ELEVATION_NAMES, parse_columns, read_ascii
+from .checks import check_points
 from .errors import FileAccessError, InputError, InputWarning, NotEnoughPointsError, ParameterError
 from .outputs import atomic_path, dataclasses_asdict
 
@@ -52,6 +53,7 @@ __all__ = [
     "format_from_path",
     "parse_columns",
     "check_read_options",
+    "pipeline_input",
     "CloudSummary",
     "describe",
 ]
@@ -334,6 +336,41 @@ def read(
     if crs is not None:
         cloud = _declare_crs(cloud, crs)
     return cloud
+
+
+def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: int = 10
+                   ) -> tuple[PointCloud, np.ndarray]:
+    """A pipeline's input as a cloud and its checked ``(N, 3)`` points, cropped.
+
+    Parameters
+    ----------
+    data : PointCloud or ndarray, shape (N, 3)
+    crop : box or polygon, optional
+        See :func:`mbinspect.geometry.crop_mask`.
+    minimum : int
+        Fewest points the pipeline can work with.
+
+    Returns
+    -------
+    cloud : PointCloud
+    points : ndarray, shape (N, 3)
+
+    Raises
+    ------
+    DataError
+        The cloud's z is in doubt (``meta["z_doubt"]``, see :func:`read`).
+    NotEnoughPointsError
+        Fewer than ``minimum`` points (after the crop).
+    """
+    from .errors import DataError
+    from .geometry import crop_mask
+
+    cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
+    if cloud.meta.get("z_doubt"):
+        raise DataError(cloud.meta["z_doubt"])
+    if crop is not None:
+        cloud = cloud.subset(crop_mask(cloud.xyz, crop))
+    return cloud, check_points(cloud.xyz, minimum=minimum, name="points")
 
 
 def _looks_geographic(xyz: np.ndarray) -> bool:

@@ -8,10 +8,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..checks import check_points
 from ..errors import DataError
-from ..geometry import crop_mask
-from ..io import PointCloud
+from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from .assess import assess_pile, other_method_piles
 from .design import Design, apply_design
@@ -72,12 +70,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     True
     """
     opts = PileOptions(**overrides) if options is None else options.replace(**overrides)
-    cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
-    if cloud.meta.get("z_doubt"):
-        raise DataError(cloud.meta["z_doubt"])
-    if opts.crop is not None:
-        cloud = cloud.subset(crop_mask(cloud.xyz, opts.crop))
-    pts = check_points(cloud.xyz, minimum=10, name="points")
+    cloud, pts = pipeline_input(data, crop=opts.crop)
     intensity = cloud.fields.get("intensity") if opts.use_intensity else None
     ping = cloud.fields.get("ping")
     report = progress or (lambda f: None)

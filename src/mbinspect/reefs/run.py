@@ -9,10 +9,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..checks import check_points
 from ..errors import DataError
-from ..geometry import crop_mask
-from ..io import PointCloud
+from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from .detect import clean_reef_points, denoise, reef_points
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
@@ -72,12 +70,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     25
     """
     opts = ReefOptions(**overrides) if options is None else options.replace(**overrides)
-    cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
-    if cloud.meta.get("z_doubt"):
-        raise DataError(cloud.meta["z_doubt"])
-    if opts.crop is not None:
-        cloud = cloud.subset(crop_mask(cloud.xyz, opts.crop))
-    pts = check_points(cloud.xyz, minimum=10)
+    cloud, pts = pipeline_input(data, crop=opts.crop)
     report = progress or (lambda f: None)
     local = opts.method == "local"
     keep, rep = denoise(pts, radius=opts.noise_radius, min_neighbors=opts.noise_neighbors)
