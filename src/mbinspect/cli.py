@@ -267,7 +267,8 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
         write_json({**sim.truth, "command_line": ["mbinspect", *argv]}, tmp / "truth.json")
         np.savez_compressed(tmp / "labels.npz", label=sim.labels, ident=sim.ident)
         if sim.truth.get("design"):
-            write_table(sim.truth["design"], tmp / "design.csv", ["id", "x", "y"])
+            cols = (["group"] if "group" in sim.truth["design"][0] else []) + ["id", "x", "y"]
+            write_table(sim.truth["design"], tmp / "design.csv", cols)
         if sim.truth["reefs"]:
             rows = [{"x": x, "y": y, "id": i} for x, y, i in sim.reference_rows(seed=args.seed)]
             write_table(rows, tmp / "reference.csv", ["x", "y", "id"])
@@ -458,7 +459,7 @@ def build_parser() -> argparse.ArgumentParser:
              "  mbinspect simulate jacket --tilt-max-deg 5 --noise-scale 2 --format laz\n"
              "  mbinspect simulate reef-field --touching-pairs 4 --sand-wave-amplitude 0.4\n"
              "  mbinspect simulate jacket --show-options")
-    p.add_argument("preset", choices=["jacket", "reef-field"])
+    p.add_argument("preset", choices=["jacket", "wharf", "reef-field"])
     p.add_argument("--seed", type=typed_parser(int, "seed"), default=0, help="random seed (default 0)")
     p.add_argument("--out", metavar="DIR", help="output folder (default sim-PRESET-SEED)")
     p.add_argument("--format", choices=["xyz", "las", "laz", "ply", "npz"], default="xyz",

@@ -847,9 +847,35 @@ class ReefFieldOptions:
     origin_y: float = 3372800.0  #: northing of the field centre
 
 
+@dataclass(frozen=True)
+class WharfOptions:
+    """The ``wharf`` preset: a row of four-pile jackets along a wharf, some of battered piles.
+
+    ``rakes`` gives each jacket's pile rake 1:N (one horizontal over N vertical): ``0`` for
+    vertical piles, ``6`` for 1:6 (9.5 deg), ``4`` for 1:4 (14 deg); battered piles lean
+    outward from their jacket's centre. Lengths in m, angles in degrees.
+    """
+
+    rakes: str = "0,6,4"  #: per jacket, the rake 1:N of its piles (0: vertical)
+    side: float = 14.0  #: design side of each jacket's square of piles
+    gap: float = 26.0  #: clear distance between neighbouring jackets' nearest piles
+    radius: float = 0.6  #: pile radius
+    top: float = -8.0  #: design top elevation
+    seabed: float = -14.0  #: seabed elevation at the wharf centre
+    slope_deg: float = 0.5  #: seabed slope
+    roughness: float = 0.03  #: seabed roughness RMS
+    position_scatter: float = 0.03  #: as-built deviation of each pile from design (1 sigma)
+    top_scatter: float = 0.02  #: as-built deviation of each top elevation (1 sigma)
+    line_offset: float = 10.0  #: distance of the lines along the wharf outside the piles
+    ping_spacing: float = 0.08  #: along-track ping spacing
+    origin_x: float = 402800.0  #: easting of the wharf centre
+    origin_y: float = 3372900.0  #: northing of the wharf centre
+
+
 #: Preset name -> (options class, default sonar).
 PRESETS: dict[str, tuple[type, Sonar]] = {
     "jacket": (JacketOptions, Sonar()),
+    "wharf": (WharfOptions, Sonar()),
     "reef-field": (ReefFieldOptions, Sonar(n_beams=256)),
 }
 
@@ -891,6 +917,47 @@ def _jacket(opt: JacketOptions, rng: np.random.Generator, sonar: Sonar
     extra = {"design": [{"id": i + 1, "x": dx + opt.origin_x, "y": dy + opt.origin_y}
                         for i, (dx, dy) in enumerate(design)]}
     return scene, Survey(tuple(lines), sonar), extra
+
+
+def _rakes(text: str) -> list[float]:
+    try:
+        rakes = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise fail("rakes", text, "pile rakes 1:N per jacket, comma-separated (0 for vertical)") from None
+    if not rakes or any(r != 0 and r < 1 for r in rakes):
+        raise fail("rakes", text, "at least one jacket, each rake 0 (vertical) or N >= 1 for 1:N")
+    return rakes
+
+
+def _wharf(opt: WharfOptions, rng: np.random.Generator, sonar: Sonar
+           ) -> tuple[Scene, Survey, dict[str, Any]]:
+    rakes = _rakes(opt.rakes)
+    pitch = opt.side + opt.gap
+    h = opt.side / 2
+    half = (len(rakes) - 1) * pitch / 2 + h
+    seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
+                    roughness=opt.roughness, extent=half + opt.line_offset + 60,
+                    seed=int(rng.integers(2**31)))
+    piles: list[Pile] = []
+    design: list[dict[str, Any]] = []
+    for g, rake in enumerate(rakes):
+        cx = -(len(rakes) - 1) * pitch / 2 + g * pitch
+        tilt = math.degrees(math.atan(1.0 / rake)) if rake else 0.0
+        for dx, dy in ((-h, -h), (h, -h), (-h, h), (h, h)):
+            off = rng.normal(0.0, opt.position_scatter, 2)
+            outward = math.degrees(math.atan2(dx, dy)) % 360.0
+            piles.append(Pile(cx + dx + off[0], dy + off[1], opt.top + rng.normal(0, opt.top_scatter),
+                              opt.radius, tilt_deg=tilt, tilt_bearing_deg=outward, bottom_z=opt.seabed - 15))
+            design.append({"group": g + 1, "id": len(design) + 1, "x": cx + dx + opt.origin_x,
+                           "y": dy + opt.origin_y})
+    e, o = half + 25.0, h + opt.line_offset
+    lines = [Line(((-e, -o), (e, -o)), ping_spacing=opt.ping_spacing),
+             Line(((e, o), (-e, o)), ping_spacing=opt.ping_spacing),
+             Line(((-e, -h), (e, -h)), ping_spacing=opt.ping_spacing),
+             Line(((e, h), (-e, h)), ping_spacing=opt.ping_spacing)]
+    scene = Scene(seabed, tuple(piles), origin=(opt.origin_x, opt.origin_y))
+    jackets = [{"group": g + 1, "rake": r} for g, r in enumerate(rakes)]
+    return scene, Survey(tuple(lines), sonar), {"design": design, "jackets": jackets}
 
 
 def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
@@ -1091,7 +1158,9 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     sonar = dataclasses.replace(sonar, **{k: v for k, v in overrides.items() if k in sonar_fields})
     _check_options(opt, sonar)
     scene_seed, noise_seed = np.random.SeedSequence(seed).spawn(2)
-    builder = _jacket if preset == "jacket" else _reef_field
+    builders: dict[str, Callable[..., tuple[Scene, Survey, dict[str, Any]]]] = {
+        "jacket": _jacket, "wharf": _wharf, "reef-field": _reef_field}
+    builder = builders[preset]
     scene, plan, extra = builder(opt, np.random.default_rng(scene_seed), sonar)
     estimate = plan.estimated_soundings()
     if estimate > MAX_SOUNDINGS and not force:
@@ -1128,6 +1197,10 @@ def _check_options(opt: Any, sonar: Sonar) -> None:
                        f"survey lines from {', '.join(JACKET_LINES)}, comma-separated")
         if opt.top < opt.seabed + 0.5:
             raise fail("top", opt.top, f"a pile top at least 0.5 m above the seabed ({opt.seabed} m)")
+    if isinstance(opt, WharfOptions):
+        _rakes(opt.rakes)
+        if opt.top < opt.seabed + 0.5:
+            raise fail("top", opt.top, f"a pile top at least 0.5 m above the seabed ({opt.seabed} m)")
     if isinstance(opt, ReefFieldOptions):
         kinds = [s.strip() for s in opt.groups.split(",") if s.strip()]
         bad = [k for k in kinds if k not in BUILTIN_DESIGNS and k != "mixed"]
@@ -1145,10 +1218,11 @@ def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels:
            extra: dict[str, Any]) -> dict[str, Any]:
     ox, oy = scene.origin
     piles = []
+    groups_of = {d["id"]: d.get("group", 1) for d in extra.get("design", [])}
     for i, p in enumerate(scene.piles):
         piles.append({"id": i + 1, "x": p.x + ox, "y": p.y + oy, "z": p.top_z,
                       "radius": p.radius, "tilt_deg": p.tilt_deg,
-                      "tilt_azimuth_deg": p.tilt_bearing_deg % 360.0,
+                      "tilt_azimuth_deg": p.tilt_bearing_deg % 360.0, "group": groups_of.get(i + 1, 1),
                       "seabed_z": float(scene.seabed.elevation(p.x, p.y))})
     spacings = [{"a": a["id"], "b": b["id"],
                  "distance": math.hypot(a["x"] - b["x"], a["y"] - b["y"])}
