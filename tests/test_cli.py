@@ -265,15 +265,19 @@ def test_demo_end_to_end_with_the_installed_command(tmp_path):
     errors = [abs(s["distance"] - true_spacings[s["a"], s["b"]]) for s in d["spacings"]]
     assert len(errors) == 6 and max(errors) < 0.02  # the printed table's claim, checked
     assert "error vs truth mm" in run.stdout
-    # the as-built jacket of seed 3 misses its 22 m design by more than 5 cm on two sides:
-    # each verdict agrees with the truth's, and the exit status says a spacing failed
+    # the as-built jacket of seed 3 misses its 22 m design by 5.5 and 5.6 cm on two sides, within
+    # 2 sigma of the tolerance: decided at 95 %, those two are undecided and no verdict
+    # contradicts the truth; the exit status says a verdict is undecided
     for s in d["spacings"]:
         true_dev = true_spacings[s["a"], s["b"]] - s["design"]
-        if abs(abs(true_dev) - 0.05) > 0.01:
-            assert s["pass"] == (abs(true_dev) <= 0.05), s
-    failed = sum(not s["pass"] for s in d["spacings"])
-    assert failed == run.stdout.count("FAIL") >= 1
-    assert run.returncode == 3, run.stderr
+        if s["verdict"] == "pass":
+            assert abs(true_dev) <= 0.05, s
+        if s["verdict"] == "fail":
+            assert abs(true_dev) > 0.05, s
+    undecided = [s for s in d["spacings"] if s["verdict"] == "undecided"]
+    assert len(undecided) == 2 and all(abs(s["deviation"]) > 0.05 for s in undecided)
+    assert run.stdout.count("undecided") == 2 and "frame fits" in run.stdout
+    assert run.returncode == 4, run.stderr
     assert d["parameters"]["command_line"] == ["mbinspect", "demo", "--seed", "3", "--out", str(out),
                                                "--no-figures"]
 

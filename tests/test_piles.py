@@ -13,6 +13,7 @@ from mbinspect.errors import DataError, InputError, ParameterError
 from mbinspect.io import write
 from mbinspect.piles import (
     Design,
+    PileFit,
     locate_piles,
     read_design,
     separate_piles,
@@ -190,7 +191,8 @@ def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
         f"{d['id']},{d['x']},{d['y']}" for d in jacket_small.truth["design"]) + "\n")
     out = tmp_path / "out"
     code = main(["piles", str(src), "--count", "4", "--radius", "0.75", "--design", str(design),
-                 "--out", str(out), "--method", "both", "--tolerance", "0.2", "--max-sigma", "0.01"])
+                 "--out", str(out), "--method", "both", "--tolerance", "0.2", "--frame-tolerance", "0.2",
+                 "--max-sigma", "0.01"])
     assert code == 0, capsys.readouterr().err
     printed = capsys.readouterr().out
     assert "1-2" in printed and "pass" in printed
@@ -207,7 +209,8 @@ def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
     assert [p["method"] for p in d["other_piles"]] == ["centre"] * 4
     assert {p["method"] for p in d["piles"]} == {"intersection"}
     rows = (out / "piles.csv").read_text().splitlines()
-    assert len(rows) == 9 and sum(r.split(",")[7] == "centre" for r in rows[1:]) == 4
+    col = rows[0].split(",").index("method")
+    assert len(rows) == 9 and sum(r.split(",")[col] == "centre" for r in rows[1:]) == 4
     assert "Piles by the centre method" in page
     for name in ("piles.csv", "spacings.csv"):
         assert b"\r\n" not in (out / name).read_bytes()
@@ -244,3 +247,62 @@ def test_polygon_crop_keeps_the_piles_inside(jacket_small, tmp_path, capsys):
     assert main(["piles", str(src), "--radius", "0.75", "--crop", flat, "--out", str(tmp_path / "o"),
                  "--no-figures"]) in (0, 3)
     assert len(json.loads((tmp_path / "o" / "piles.json").read_text())["piles"]) == 2
+
+
+@pytest.fixture(scope="module")
+def wharf():
+    """Three jackets of 0.6 m piles: vertical, battered 1:6 and battered 1:4."""
+    return simulate("wharf", seed=1, ping_spacing=0.16)
+
+
+def test_wharf_jackets_found_without_hints_with_battered_piles(wharf):
+    truth = {p["id"]: p for p in wharf.truth["piles"]}
+    result = locate_piles(wharf.cloud, radius=0.6)
+    assert len(result.piles) == 12 and not result.warnings
+    for p in result.piles:
+        t = min(truth.values(), key=lambda q: math.hypot(q["x"] - p.x, q["y"] - p.y))
+        assert math.hypot(t["x"] - p.x, t["y"] - p.y) < 0.02
+        assert abs(p.tilt_deg - t["tilt_deg"]) < 0.3  # up to 14 deg (1:4)
+        assert p.group == t["group"]  # jackets numbered west to east, as the simulator's
+    assert len(result.spacings) == 18 and {s.group for s in result.spacings} == {1, 2, 3}
+    assert len(locate_piles(wharf.cloud, radius=0.6, all_pairs=True).spacings) == 66
+    assert {p.group for p in locate_piles(wharf.cloud, radius=0.6, groups="none").piles} == {1}
+
+
+def test_frame_fit_and_decisions_at_95_percent(wharf, tmp_path, capsys):
+    from mbinspect.piles import fit_frames, read_design
+
+    design = tmp_path / "design.csv"
+    design.write_text("group,id,x,y\n" + "".join(f"{d['group']},{d['id']},{d['x']},{d['y']}\n"
+                                                 for d in wharf.truth["design"]))
+    d = read_design(design)
+    assert d.groups[5] == 2 and len(d.positions) == 12
+    result = locate_piles(wharf.cloud, radius=0.6, design=d)
+    assert len(result.frames) == 3
+    # the frame fitted to the measured centres misses each pile as the frame fitted to the
+    # true (as-built) centres does, within 1.5 cm and within 3 of its reported sigmas
+    true_piles = tuple(PileFit(t["id"], t["x"], t["y"], t["z"], 0.6, None, None, "centre", 50, 0, 0.0, 0.0,
+                               0.001, group=t["group"]) for t in wharf.truth["piles"])
+    ideal = {f.group: f for f in fit_frames(true_piles, {p.id: np.eye(2) * 1e-6 for p in true_piles}, d,
+                                            tolerance=0.05)}
+    for f in result.frames:
+        for got, want in zip(f.residuals, ideal[f.group].residuals, strict=True):
+            off = math.hypot(got["dx"] - want["dx"], got["dy"] - want["dy"])
+            assert got["id"] == want["id"] and off < 0.015 and off < 3 * got["sigma"]
+            if want["miss"] < 0.04:  # clear of the tolerance by more than the noise: no false alarm
+                assert got["verdict"] != "fail"
+    tsp = {(s["a"], s["b"]): s["distance"] for s in wharf.truth["spacings"]}
+    for s in result.spacings:
+        true_dev = tsp[s.a, s.b] - s.design
+        assert s.verdict != "pass" or abs(true_dev) <= 0.05
+        assert s.verdict != "fail" or abs(true_dev) > 0.05
+    src = tmp_path / "wharf.npz"
+    write(wharf.cloud, src)
+    code = main(["piles", str(src), "--radius", "0.6", "--design", str(design), "--no-figures",
+                 "--out", str(tmp_path / "o")])
+    printed = capsys.readouterr().out
+    verdicts = [s.verdict for s in result.spacings] + [f.verdict for f in result.frames]
+    assert code == (3 if "fail" in verdicts else 4 if "undecided" in verdicts else 0)
+    assert printed.count("design frame fitted") == 3
+    saved = json.loads((tmp_path / "o" / "piles.json").read_text())
+    assert [f["group"] for f in saved["frames"]] == [1, 2, 3]

@@ -34,6 +34,7 @@ __all__ = ["main", "run", "build_parser"]
 EXIT_USER = 2
 EXIT_FLAGGED = 3  # results written, but a pile is flagged or a spacing fails the design
 EXIT_IO = 1  # the output could not be written (a full disk)
+EXIT_UNDECIDED = 4  # results written, nothing fails, but a verdict is undecided at 95 %
 EXIT_PIPE = 141  # the reader of our output went away (128 + SIGPIPE)
 
 
@@ -306,8 +307,10 @@ def _finish_piles(result: Any, cloud: Any, tmp: Path, out: Path, args: argparse.
         for f in p.flags:
             print(f"mbinspect: warning: pile {p.id}: {f}", file=sys.stderr)
     rep.info(f"results in {out}/ (report.html, piles.json, piles.csv, spacings.csv)")
-    failed = any(s.passed is False for s in result.spacings)
-    return EXIT_FLAGGED if (failed or not result.ok) else 0
+    verdicts = [s.verdict for s in result.spacings] + [f.verdict for f in result.frames]
+    if "fail" in verdicts or not result.ok:
+        return EXIT_FLAGGED
+    return EXIT_UNDECIDED if "undecided" in verdicts else 0
 
 
 def _cmd_piles(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:

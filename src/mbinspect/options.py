@@ -48,6 +48,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "radius_mode": ("auto", "fixed", "free"),
     "reef_method": ("local", "paper"),
     "seabed": ("auto", "plane", "grid"),
+    "pile_groups": ("auto", "none"),
 }
 
 Check = Callable[[str, Any], Any]

@@ -272,9 +272,10 @@ def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
     return images
 
 
-_PILE_COLS = ["id", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "method", "n_top",
+_PILE_COLS = ["id", "group", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "method", "n_top",
               "n_side", "side_coverage_deg", "rms", "sigma_xy", "flags"]
-_SPACING_COLS = ["a", "b", "distance", "sigma", "design", "deviation", "pass", "method"]
+_SPACING_COLS = ["group", "a", "b", "distance", "sigma", "design", "deviation", "verdict", "pass", "method"]
+_FRAME_COLS = ["id", "dx", "dy", "miss", "sigma", "miss_95", "verdict"]
 
 
 def spacing_table(result: Any, truth: Mapping[tuple[int, int], float] | None = None) -> str:
@@ -283,23 +284,32 @@ def spacing_table(result: Any, truth: Mapping[tuple[int, int], float] | None = N
     With both centre methods, each method's spacings, marked by a ``method`` column.
     """
     both = bool(result.other_spacings)
-    head = f"{'pair':>6} {'distance m':>11} {'1-sigma mm':>10} {'design m':>9} {'dev cm':>7} {'':>5}"
+    head = (f"{'jacket':>6} {'pair':>6} {'distance m':>11} {'1-sigma mm':>10} {'design m':>9} {'dev cm':>7} "
+            f"{'at 95 %':>9}")
     if both:
         head += f" {'method':>12}"
     if truth:
         head += f" {'error vs truth mm':>17}"
     lines = [head]
     for s in tuple(result.spacings) + tuple(result.other_spacings):
-        row = (f"{s.a:>3}-{s.b:<2} {s.distance:>11.4f} {1000 * s.sigma:>10.1f} "
+        verdict = {"fail": "FAIL", "undecided": "undecided"}.get(s.verdict or "", s.verdict or "")
+        row = (f"{s.group or '-':>6} {s.a:>3}-{s.b:<2} {s.distance:>11.4f} {1000 * s.sigma:>10.1f} "
                f"{'' if s.design is None else f'{s.design:.3f}':>9} "
                f"{'' if s.deviation is None else f'{100 * s.deviation:+.1f}':>7} "
-               f"{'' if s.passed is None else ('pass' if s.passed else 'FAIL'):>5}")
+               f"{verdict:>9}")
         if both:
             row += f" {s.method:>12}"
         if truth:
             t = truth.get((s.a, s.b))
             row += f" {'' if t is None else f'{1000 * (s.distance - t):+.1f}':>17}"
         lines.append(row)
+    for f in getattr(result, "frames", ()):
+        worst = max(f.residuals, key=lambda q: q["miss_95"])
+        said = {"pass": "frame fits", "fail": "frame FAILS"}.get(f.verdict, "undecided")
+        lines.append(f"jacket {f.group}: design frame fitted (rotation {f.rotation_deg:+.3f} deg, shift "
+                     f"{f.shift_x:+.3f}, {f.shift_y:+.3f} m); largest miss {1000 * worst['miss']:.0f} mm "
+                     f"(pile {worst['id']}, {1000 * worst['miss_95']:.0f} mm at 95 %): {said} "
+                     f"(tolerance {1000 * f.tolerance:.0f} mm)")
     return "\n".join(lines)
 
 
@@ -353,6 +363,11 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
                                                       for w in result.warnings) + "</ul>"))
     sections.append(("Coordinates", f"<p>{html.escape(crs_label(result))}</p>"))
     sections.append(("Spacings (m)", html_table(d["spacings"], _SPACING_COLS, digits=4)))
+    for f in d["frames"]:
+        sections.append((f"Jacket {f['group']}: design frame fit ({f['verdict']} at 95 %, tolerance "
+                         f"{f['tolerance']} m; rotation {f['rotation_deg']:.3f} deg, shift "
+                         f"{f['shift_x']:.3f}, {f['shift_y']:.3f} m)",
+                         html_table(f["residuals"], _FRAME_COLS, digits=4)))
     sections.append(("Piles (top centre, m)", html_table(d["piles"], _PILE_COLS, digits=4)))
     if d["other_piles"]:
         sections.append(("Piles by the centre method (top centre, m)",

@@ -17,8 +17,11 @@ The pipeline, one module per stage (:func:`locate_piles` in ``run`` calls them i
    changes by less than ``delta``.
 6. ``assess`` - :func:`assess_pile`: the flags of a pile whose data cannot support a
    centimetre answer.
-7. ``design`` and ``space`` - :func:`apply_design` (design ids) and :func:`spacings` with
-   their 1-sigma and the design's verdict.
+7. ``design``, ``group`` and ``space`` - :func:`apply_design` (design ids),
+   :func:`group_piles` (jackets, from the design's groups or the spacing) and
+   :func:`spacings` within each jacket with their 1-sigma and the design's verdict at 95 %.
+8. ``frame`` - :func:`fit_frames`: each jacket's design frame fitted to its measured
+   centres (rigid, weighted), each pile's miss with its 1-sigma, and the frame's verdict.
 
 Every option is declared once in :class:`PileOptions`. Pile ids are stable: rows from
 south to north, and west to east within a row; with a design of positions, the design's
@@ -38,11 +41,13 @@ from .assess import assess_pile, other_method_piles
 from .centre import centre_method, top_coverage
 from .design import Design, apply_design, match_design, read_design
 from .elevate import elevated_points, intensity_threshold
+from .frame import decide, fit_frames
+from .group import group_piles, jacket_groups
 from .intersect import intersection_method, side_coverage
 from .iterate import iterate
 from .measure import measure_pile, prune
 from .options import METHODS, PileOptions
-from .results import PileFit, PileMeasure, PileResult, PileSegment, Spacing
+from .results import FrameFit, PileFit, PileMeasure, PileResult, PileSegment, Spacing
 from .run import locate_piles
 from .separate import separate_piles, stable_order
 from .space import spacings
@@ -76,5 +81,10 @@ __all__ = [
     "assess_pile",
     "other_method_piles",
     "spacings",
+    "group_piles",
+    "jacket_groups",
+    "fit_frames",
+    "decide",
+    "FrameFit",
     "locate_piles",
 ]

@@ -86,7 +86,7 @@ def other_method_piles(piles: tuple[PileFit, ...], radius: float
         PileFit(id=p.id, x=c["x"], y=c["y"], z=c["z"], radius=radius, tilt_deg=None,
                 tilt_azimuth_deg=None, method="centre", n_top=p.n_top, n_side=0,
                 side_coverage_deg=0.0, rms=0.0, sigma_xy=c["sigma_xy"],
-                top_coverage=c.get("top_coverage"))
+                top_coverage=c.get("top_coverage"), group=p.group)
         for p in piles if (c := p.alternatives.get("centre")) is not None)
     covs = {p.id: np.asarray(p.alternatives["centre"]["cov"]) for p in piles if "centre" in p.alternatives}
     stripped = tuple(replace(p, alternatives={k: {kk: vv for kk, vv in v.items() if kk != "cov"}

@@ -27,11 +27,13 @@ __all__ = ["Design", "read_design", "match_design", "apply_design"]
 
 @dataclass(frozen=True)
 class Design:
-    """A design: pile positions (id -> x, y) or pile-pair spacings ((a, b) -> distance)."""
+    """A design: pile positions (id -> x, y) or pile-pair spacings ((a, b) -> distance), and
+    the jacket (group) of each pile id when the design file has a ``group`` column."""
 
     positions: dict[int, tuple[float, float]] = field(default_factory=dict)
     spacings: dict[tuple[int, int], float] = field(default_factory=dict)
     source: str | None = None
+    groups: dict[int, int] = field(default_factory=dict)
 
     def spacing(self, a: int, b: int) -> float | None:
         """The design distance between piles ``a`` and ``b`` (m), or None if not designed."""
@@ -44,7 +46,7 @@ class Design:
 
 
 def read_design(path: str | Path) -> Design:
-    """Read a design CSV: ``id,x,y`` (positions, m) or ``a,b,distance`` (spacings, m).
+    """Read a design CSV: ``[group,]id,x,y`` (positions, m) or ``a,b,distance`` (spacings, m).
 
     A header row is required; ``#`` lines and blank lines are skipped.
 
@@ -91,15 +93,21 @@ def read_design(path: str | Path) -> Design:
     if not body:
         raise InputError(f"{p}: the design file has a header but no rows")
     if {"id", "x", "y"} <= set(header):
-        cols = [header.index(c) for c in ("id", "x", "y")]
+        grouped = "group" in header
+        names = (("group",) if grouped else ()) + ("id", "x", "y")
+        cols = [header.index(c) for c in names]
         positions: dict[int, tuple[float, float]] = {}
+        groups: dict[int, int] = {}
         for lineno, cells in body:
-            v = _design_row(p, lineno, cells, cols, header, n_ids=1)
+            v = _design_row(p, lineno, cells, cols, header, n_ids=2 if grouped else 1)
+            if grouped:
+                groups[int(v[1])] = int(v[0])
+                v = v[1:]
             pid, x, y = int(v[0]), v[1], v[2]
             if pid in positions:
                 raise InputError(f"{p}, line {lineno}: pile id {pid} appears twice")
             positions[pid] = (x, y)
-        return Design(positions=positions, source=str(p))
+        return Design(positions=positions, source=str(p), groups=groups)
     if {"a", "b", "distance"} <= set(header):
         cols = [header.index(c) for c in ("a", "b", "distance")]
         spacings: dict[tuple[int, int], float] = {}

@@ -41,8 +41,14 @@ class PileOptions(Options):
     count: int | None = option(None, help="number of piles K (K-means); found from the data if none",
                                check="count", kind=int, metavar="K")
     method: str = option("intersection", help="top-centre method", choices="pile_method")
-    tolerance: float = option(0.05, unit="m", help="pass/fail tolerance on spacing deviations",
-                              check="positive")
+    tolerance: float = option(0.05, unit="m", help="pass/fail tolerance on spacing deviations (decided "
+                              "at 95 per cent: pass, fail or undecided)", check="positive")
+    groups: str = option("auto", help="piles grouped into jackets by their spacing (auto), or one group "
+                         "(none); a design with a group column decides", choices="pile_groups")
+    all_pairs: bool = option(False, help="spacings between every pair of piles, not only within a jacket",
+                             check="bool")
+    frame_tolerance: float = option(0.05, unit="m", help="how far a pile may miss its jacket's fitted "
+                                    "design frame (decided at 95 per cent)", check="positive")
     crop: tuple[Any, ...] | None = option(
         None, unit="m", help="keep only this box (xmin,ymin,xmax,ymax) or polygon (x1,y1,x2,y2,...)",
         check=crop_value, kind=tuple, metavar="XMIN,YMIN,XMAX,YMAX", parse=parse_crop)

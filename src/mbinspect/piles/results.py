@@ -16,7 +16,7 @@ from ..fit import Cylinder, Plane
 from ..outputs import to_jsonable
 from ..seabed import GridSurface
 
-__all__ = ["PileSegment", "PileMeasure", "PileFit", "Spacing", "PileResult"]
+__all__ = ["PileSegment", "PileMeasure", "PileFit", "Spacing", "FrameFit", "PileResult"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,11 +117,12 @@ class PileFit:
     radius_fitted: float | None = None
     top_coverage: float | None = None
     alternatives: dict[str, dict[str, float]] = field(default_factory=dict)
+    group: int = 1
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``piles.json``; the other method's centre under ``methods``."""
         d: dict[str, Any] = {
-            "id": self.id, "x": self.x, "y": self.y, "z": self.z, "radius": self.radius,
+            "id": self.id, "group": self.group, "x": self.x, "y": self.y, "z": self.z, "radius": self.radius,
             "tilt_deg": self.tilt_deg, "tilt_azimuth_deg": self.tilt_azimuth_deg,
             "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
             "side_coverage_deg": self.side_coverage_deg, "rms": self.rms,
@@ -135,7 +136,12 @@ class PileFit:
 
 @dataclass(frozen=True)
 class Spacing:
-    """The horizontal distance between two pile top centres, its 1-sigma and the design."""
+    """The horizontal distance between two pile top centres, its 1-sigma and the design.
+
+    ``verdict`` decides at 95 %: ``pass`` when |deviation| + 1.96 sigma is within the
+    tolerance, ``fail`` when |deviation| - 1.96 sigma exceeds it, else ``undecided``;
+    ``passed`` is True, False or None accordingly (None also without a design).
+    """
 
     a: int
     b: int
@@ -145,13 +151,43 @@ class Spacing:
     deviation: float | None = None
     passed: bool | None = None
     method: str = "intersection"
+    verdict: str | None = None
+    group: int = 1
 
     def to_dict(self) -> dict[str, Any]:
-        """One row of ``spacings`` in ``piles.json`` (``pass``: within the tolerance)."""
-        return to_jsonable({"a": self.a, "b": self.b, "distance": self.distance,
+        """One row of ``spacings`` in ``piles.json``."""
+        return to_jsonable({"group": self.group, "a": self.a, "b": self.b, "distance": self.distance,
                             "sigma": self.sigma, "design": self.design,
-                            "deviation": self.deviation, "pass": self.passed,
+                            "deviation": self.deviation, "verdict": self.verdict, "pass": self.passed,
                             "method": self.method})
+
+
+@dataclass(frozen=True)
+class FrameFit:
+    """A jacket's prefabricated frame (its design template) fitted to the measured centres.
+
+    The best rigid plan transform (rotation, shift) of the design positions of the group
+    onto the measured top centres, weighted by their covariances. ``residuals`` holds, per
+    pile, the plan miss of the measured centre from the fitted frame (m) and its 1-sigma;
+    ``verdict`` says whether the frame fits within ``tolerance`` at 95 %: ``pass`` when every
+    miss + 1.96 sigma is within it, ``fail`` when a miss - 1.96 sigma exceeds it, else
+    ``undecided``.
+    """
+
+    group: int
+    rotation_deg: float
+    shift_x: float
+    shift_y: float
+    residuals: tuple[dict[str, Any], ...]
+    tolerance: float
+    verdict: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """The frame fit, JSON-ready."""
+        return to_jsonable({"group": self.group, "rotation_deg": self.rotation_deg,
+                            "shift_x": self.shift_x, "shift_y": self.shift_y,
+                            "residuals": list(self.residuals), "tolerance": self.tolerance,
+                            "verdict": self.verdict})
 
 
 @dataclass(frozen=True, eq=False)
@@ -190,6 +226,7 @@ class PileResult:
     other_spacings: tuple[Spacing, ...] = ()
     other_piles: tuple[PileFit, ...] = ()
     segmentation: dict[str, Any] = field(default_factory=dict)
+    frames: tuple[FrameFit, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The result as JSON-ready dicts and lists (``piles.json``)."""
@@ -200,6 +237,7 @@ class PileResult:
             "iterations": to_jsonable(list(self.iterations)),
             "parameters": to_jsonable(self.parameters),
             "segmentation": to_jsonable(self.segmentation),
+            "frames": [f.to_dict() for f in self.frames],
             "warnings": list(self.warnings),
             "seabed": self.seabed.to_dict() if self.seabed is not None else None,
         }

@@ -14,6 +14,8 @@ from ..seabed import GROUND_BAND
 from .assess import assess_pile, other_method_piles
 from .design import Design, apply_design
 from .elevate import elevated_points, intensity_threshold
+from .frame import fit_frames
+from .group import group_piles
 from .iterate import iterate
 from .options import PileOptions
 from .results import PileFit, PileResult, Spacing
@@ -93,14 +95,17 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     fits, iterations = iterate(segs, side_n, opts, report)
     piles = tuple(assess_pile(pid, fits[pid], opts) for pid in sorted(fits))
     piles, remap, warn = apply_design(piles, design)
+    piles = group_piles(piles, design, mode=opts.groups)
     covs = {remap[k]: fits[k].cov for k in fits}
-    pairs = spacings(piles, covs, design, opts.tolerance,
+    pairs = spacings(piles, covs, design, opts.tolerance, all_pairs=opts.all_pairs,
                      method="centre" if opts.method == "centre" else "intersection")
+    frames = fit_frames(piles, covs, design, tolerance=opts.frame_tolerance)
     others: tuple[PileFit, ...] = ()
     other_pairs: tuple[Spacing, ...] = ()
     if opts.method == "both":
         others, alt_covs, piles = other_method_piles(piles, opts.radius)
-        other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre")
+        other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre",
+                               all_pairs=opts.all_pairs)
     report(1.0)
     parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
                   "input": {"source": cloud.source, "n_points": len(pts), "crs": cloud.crs},
@@ -109,4 +114,6 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
                       {remap[k]: v for k, v in segs.items()}, seabed,
                       {remap[k]: f.cylinder for k, f in fits.items() if f.cylinder is not None},
                       other_pairs, others,
-                      {"intensity_threshold": thr, "piles": {str(remap[k]): v for k, v in seg_info.items()}})
+                      {"intensity_threshold": thr,
+                       "piles": {str(remap[k]): v for k, v in seg_info.items()}},
+                      frames)

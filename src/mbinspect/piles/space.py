@@ -9,13 +9,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from .design import Design
+from .frame import decide
 from .results import PileFit, Spacing
 
 __all__ = ["spacings"]
 
 
 def spacings(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: Design | None,
-             tolerance: float, *, method: str) -> tuple[Spacing, ...]:
+             tolerance: float, *, method: str, all_pairs: bool = True) -> tuple[Spacing, ...]:
     """The plan distance of every pair of piles, its 1-sigma, and the design's verdict.
 
     The 1-sigma is the two centres' plan covariances projected on the line between them.
@@ -31,6 +32,8 @@ def spacings(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: Desi
         Largest deviation from the design that passes (m).
     method : str
         The centre method the spacings come from (recorded on each).
+    all_pairs : bool
+        Every pair; else only pairs within a group (jacket). A cross-group pair has group 0.
 
     Returns
     -------
@@ -45,9 +48,13 @@ def spacings(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: Desi
     ...               Design(positions={1: (0, 0), 2: (22, 0)}), 0.05, method="centre")
     >>> round(s.distance, 3), round(s.deviation, 3), s.passed
     (22.01, 0.01, True)
+    >>> s.verdict
+    'pass'
     """
     out = []
-    for a, b in itertools.combinations(sorted(piles, key=lambda p: p.id), 2):
+    for a, b in itertools.combinations(sorted(piles, key=lambda p: (p.group, p.id)), 2):
+        if a.group != b.group and not all_pairs:
+            continue
         d = np.array([b.x - a.x, b.y - a.y])
         dist = float(np.hypot(*d))
         u = d / max(dist, 1e-12)
@@ -56,6 +63,8 @@ def spacings(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: Desi
         sigma = math.sqrt(var) if var >= 0 else math.nan
         ref = design.spacing(a.id, b.id) if design is not None else None
         dev = None if ref is None else dist - ref
-        out.append(Spacing(a.id, b.id, dist, sigma, ref, dev,
-                           None if dev is None else bool(abs(dev) <= tolerance), method))
+        verdict = None if dev is None else decide(dev, sigma, tolerance)
+        passed = None if verdict in (None, "undecided") else verdict == "pass"
+        out.append(Spacing(a.id, b.id, dist, sigma, ref, dev, passed, method, verdict,
+                           a.group if a.group == b.group else 0))
     return tuple(out)
