@@ -120,6 +120,8 @@ def test_the_crs_reaches_every_output(tmp_path, capsys):
     assert "WGS 84 / UTM zone 31N (EPSG:32631)" in (out / "report.html").read_text()
     geo = json.loads((out / "reefs.geojson").read_text())
     assert "crs_note" not in geo
+    projected = json.loads((out / "reefs_projected.geojson").read_text())
+    assert CRS.from_user_input(projected["crs"]["properties"]["name"]).to_epsg() == 32631
     capsys.readouterr()
 
 
@@ -137,6 +139,17 @@ def test_piles_geojson_is_longitude_latitude_with_a_crs(tmp_path, jacket_small):
     geo = json.loads((out / "piles.geojson").read_text())
     lon, lat = geo["features"][0]["geometry"]["coordinates"]
     assert 114 < lon < 120 and 30 < lat < 32  # zone 50N, northing 3.46 Mm
+    # the projected layer, read back: the CRS it names and the coordinates of piles.json
+    from pyproj import CRS, Transformer
+
+    projected = json.loads((out / "piles_projected.geojson").read_text())
+    crs = CRS.from_user_input(projected["crs"]["properties"]["name"])
+    assert crs.to_epsg() == 32650
+    d = json.loads((out / "piles.json").read_text())
+    x, y = projected["features"][0]["geometry"]["coordinates"]
+    assert (x, y) == (d["piles"][0]["x"], d["piles"][0]["y"])
+    back = Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform(x, y)
+    assert abs(back[0] - lon) < 1e-9 and abs(back[1] - lat) < 1e-9
     bare = tmp_path / "bare"
     code = main(["piles", str(src), "--radius", "0.75", "--count", "4", "--out", str(bare), "--no-figures"])
     assert code in (0, 3)

@@ -341,17 +341,10 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     # with both methods, both methods' piles: one row per pile and method
     write_table(d["piles"] + d["other_piles"], out / "piles.csv", _PILE_COLS)
     write_table(d["spacings"], out / "spacings.csv", _SPACING_COLS)
-    to_lonlat = lonlat_transform(crs_of(result))
-    features = []
-    for p in d["piles"] + d["other_piles"]:
-        xy = [p["x"], p["y"]]
-        if to_lonlat is not None:
-            xy = [float(v[0]) for v in to_lonlat(np.array([p["x"]]), np.array([p["y"]]))]
-        features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": xy},
-                         "properties": {c: p.get(c) for c in _PILE_COLS if c != "flags"}
-                         | {"flags": "; ".join(p.get("flags", []))}})
-    write_geojson(features, out / "piles.geojson", lonlat=to_lonlat is not None)
-    written = ["piles.json", "piles.csv", "spacings.csv", "piles.geojson"]
+    features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [p["x"], p["y"]]},
+                 "properties": {c: p.get(c) for c in _PILE_COLS if c != "flags"}
+                 | {"flags": "; ".join(p.get("flags", []))}} for p in d["piles"] + d["other_piles"]]
+    written = ["piles.json", "piles.csv", "spacings.csv", *write_gis(features, crs_of(result), out, "piles")]
     images: dict[str, bytes] = {}
     if figures:
         images = pile_figures(result, points, out)
@@ -424,7 +417,8 @@ def lonlat_transform(crs: str | None) -> Any:
     return Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform
 
 
-def write_geojson(features: list[dict[str, Any]], path: Path, *, lonlat: bool) -> None:
+def write_geojson(features: list[dict[str, Any]], path: Path, *, lonlat: bool,
+                  crs_name: str | None = None) -> None:
     """A GeoJSON FeatureCollection, atomically.
 
     With ``lonlat`` the coordinates are WGS 84 longitude and latitude, as RFC 7946 says; a
@@ -436,16 +430,69 @@ def write_geojson(features: list[dict[str, Any]], path: Path, *, lonlat: bool) -
     features : list of dict
     path : Path
     lonlat : bool
+    crs_name : str, optional
+        A named CRS (``urn:ogc:def:crs:EPSG::32631``) for coordinates that are not WGS 84:
+        written as the GeoJSON 2008 ``crs`` member, which GDAL and QGIS honour.
     """
     import json
 
     from .outputs import to_jsonable
 
     doc: dict[str, Any] = {"type": "FeatureCollection", "features": features}
-    if not lonlat:
+    if crs_name is not None:
+        doc["crs"] = {"type": "name", "properties": {"name": crs_name}}
+    elif not lonlat:
         doc["crs_note"] = "coordinates in the input's own (unknown) CRS, not WGS 84"
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(to_jsonable(doc)) + "\n", encoding="utf-8")
+
+
+def write_gis(features: list[dict[str, Any]], crs: str | None, out: Path, stem: str) -> list[str]:
+    """The features as GeoJSON a GIS places right: ``STEM.geojson`` in WGS 84 longitude and
+    latitude (RFC 7946) and, when the CRS has an EPSG code, ``STEM_projected.geojson`` in the
+    survey's own CRS, named in a ``crs`` member (which GDAL and QGIS read).
+
+    Parameters
+    ----------
+    features : list of dict
+        Point or Polygon features in the survey's projected coordinates (m).
+    crs : str or None
+        Their CRS (WKT); None: one file in those coordinates, saying so.
+    out : Path
+    stem : str
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
+    to_lonlat = lonlat_transform(crs)
+    if to_lonlat is None:
+        write_geojson(features, out / f"{stem}.geojson", lonlat=False)
+        return [f"{stem}.geojson"]
+
+    def moved(geom: dict[str, Any] | None) -> dict[str, Any] | None:
+        if geom is None:
+            return None
+        if geom["type"] == "Point":
+            lon, lat = to_lonlat(np.array([geom["coordinates"][0]]), np.array([geom["coordinates"][1]]))
+            return {"type": "Point", "coordinates": [float(lon[0]), float(lat[0])]}
+        rings = []
+        for ring in geom["coordinates"]:
+            lon, lat = to_lonlat(*np.asarray(ring, np.float64).reshape(-1, 2).T)
+            rings.append([[float(a), float(b)] for a, b in zip(lon, lat, strict=True)])
+        return {"type": geom["type"], "coordinates": rings}
+
+    write_geojson([{**f, "geometry": moved(f["geometry"])} for f in features], out / f"{stem}.geojson",
+                  lonlat=True)
+    from pyproj import CRS
+
+    epsg = CRS.from_user_input(crs).to_epsg()
+    if epsg is None:
+        return [f"{stem}.geojson"]
+    write_geojson(features, out / f"{stem}_projected.geojson", lonlat=True,
+                  crs_name=f"urn:ogc:def:crs:EPSG::{epsg}")
+    return [f"{stem}.geojson", f"{stem}_projected.geojson"]
 
 
 def json_dumps(obj: Any) -> str:
@@ -587,17 +634,13 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     write_json(d, out / "reefs.json")
     cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else [])
     write_table(d["reefs"], out / "reefs.csv", cols)
-    to_lonlat = lonlat_transform(crs_of(result))
     features = []
     for r in d["reefs"]:
         ring = r["outline"] + r["outline"][:1] if r["outline"] else []
-        if ring and to_lonlat is not None:
-            ring = [list(p) for p in zip(*to_lonlat(*np.asarray(ring, np.float64).T), strict=True)]
         features.append({"type": "Feature",
                          "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
                          "properties": {c: r[c] for c in cols}})
-    write_geojson(features, out / "reefs.geojson", lonlat=to_lonlat is not None)
-    written = ["reefs.json", "reefs.csv", "reefs.geojson"]
+    written = ["reefs.json", "reefs.csv", *write_gis(features, crs_of(result), out, "reefs")]
     images = reef_figures(result, points, out) if figures else {}
     written += [f"{n}.png" for n in images]
     ev = d["evaluation"]
