@@ -306,3 +306,53 @@ def test_frame_fit_and_decisions_at_95_percent(wharf, tmp_path, capsys):
     assert printed.count("design frame fitted") == 3
     saved = json.loads((tmp_path / "o" / "piles.json").read_text())
     assert [f["group"] for f in saved["frames"]] == [1, 2, 3]
+
+
+def test_the_report_a_client_accepts(wharf, tmp_path):
+    import html.parser
+
+    design = tmp_path / "design.csv"
+    design.write_text("group,id,x,y\n" + "".join(f"{d['group']},{d['id']},{d['x']},{d['y']}\n"
+                                                 for d in wharf.truth["design"]))
+    src = tmp_path / "wharf.npz"
+    write(wharf.cloud, src)
+    out = tmp_path / "r"
+    main(["-q", "piles", str(src), "--radius", "0.6", "--design", str(design), "--crs", "EPSG:32617",
+          "--out", str(out)])
+    page = (out / "report.html").read_text()
+
+    class Parts(html.parser.HTMLParser):
+        def __init__(self) -> None:
+            super().__init__()
+            self.headings, self.th, self.verdicts, self.images = [], [], [], 0
+            self._tag = None
+
+        def handle_starttag(self, tag, attrs):
+            self._tag = (tag, dict(attrs).get("class", ""))
+            self.images += tag == "img"
+
+        def handle_endtag(self, tag):
+            self._tag = None
+
+        def handle_data(self, data):
+            tag, cls = self._tag or ("", "")
+            if tag == "h2":
+                self.headings.append(data)
+            elif tag == "th":
+                self.th.append(data)
+            elif tag == "div" and cls.startswith("verdict"):
+                self.verdicts.append(data)
+
+    parts = Parts()
+    parts.feed(page)
+    assert parts.headings[0] == "Verdict" and len(parts.verdicts) >= 3
+    assert all(v.startswith(f"Jacket {g}: frame") and "spacings pass at 95 %" in v
+               for g, v in zip((1, 2, 3), parts.verdicts, strict=False))
+    for unit in ("measured (m)", "deviation (mm)", "1σ (mm)", "95 % interval (mm)", "tilt (°)",
+                 "easting (m)", "miss at 95 % (mm)"):
+        assert unit in parts.th
+    assert {"Jacket 1: spacings", "Jacket 2: spacings", "Jacket 3: spacings", "Jacket 3: plan",
+            "Input and software", "Parameters"} <= set(parts.headings)
+    assert "sha256" in page and "mbinspect -q piles" in page and "WGS 84 / UTM zone 17N (EPSG:32617)" in page
+    assert '"radius": 0.6' not in page  # parameters as a table, not raw JSON
+    assert parts.images >= 3 + 1 + 12  # per-jacket plans, the overview, each pile
