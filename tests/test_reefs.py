@@ -220,6 +220,15 @@ def test_cli_reefs_end_to_end(tmp_path, reef_small, capsys):
     assert "TP 50, FP 0, FN 0" in printed
     names = {p.name for p in out.iterdir()}
     assert {"reefs.json", "reefs.csv", "reefs.geojson", "report.html", "plan.png", "heights.png"} <= names
+    # the report: the verdict first, a match table with position errors, units, provenance
+    page = (out / "report.html").read_text()
+    assert page.index("class='verdict pass'>Reefs: 50 found; against 50 reference reefs: TP 50, FP 0, FN 0, "
+                      "correctness 100.0 %, completeness 100.0 %") < page.index("<h2>Summary")
+    assert "<h2>Match table</h2>" in page and "position error (m)" in page
+    for header in ("height (m)", "area (m²)", "orientation (°)", "easting (m)"):
+        assert f"<th>{header}</th>" in page
+    assert "<h2>Input and software</h2>" in page and "sha256" in page and "<h2>Parameters</h2>" in page
+    assert "plan_group_1.png" in names and "<h2>Group 2: plan</h2>" in page
     d = json.loads((out / "reefs.json").read_text())
     assert set(d) >= {"reefs", "groups", "others", "seabed", "filters", "evaluation", "parameters"}
     assert {"id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "width", "orientation_deg",

@@ -101,7 +101,7 @@ def _nice(length: float) -> float:
     return float(max(m for m in (1.0, 2.0, 5.0) if m * base <= length) * base)
 
 
-def map_furniture(ax: Any, *, crs_name: str | None, origin: tuple[float, float]) -> None:
+def map_furniture(ax: Any, *, crs_name: str | None, origin: tuple[float, float] | None) -> None:
     """What every map carries: a north arrow, a scale bar, the CRS named and grid coordinates.
 
     The axes are in metres from ``origin`` (easting, northing in the CRS); the labels say
@@ -113,8 +113,8 @@ def map_furniture(ax: Any, *, crs_name: str | None, origin: tuple[float, float])
         A plan map, equal aspect, in metres east and north of ``origin``.
     crs_name : str or None
         The CRS's name (None: the input's own coordinates).
-    origin : (float, float)
-        Grid coordinates (m) of the axes' zero.
+    origin : (float, float) or None
+        Grid coordinates (m) of the axes' zero; None: the axes are grid coordinates.
     """
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
@@ -131,8 +131,12 @@ def map_furniture(ax: Any, *, crs_name: str | None, origin: tuple[float, float])
     ax.plot([bx, bx + bar / 2], [by, by], "w-", lw=2, solid_capstyle="butt")
     ax.text(bx + bar / 2, by + 0.025 * h, f"{bar:g} m", ha="center", va="bottom", fontsize=9,
             bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1})
-    ax.set_xlabel(f"easting − {origin[0]:.2f} (m)")
-    ax.set_ylabel(f"northing − {origin[1]:.2f} (m)")
+    if origin is None:
+        ax.set_xlabel("easting (m)")
+        ax.set_ylabel("northing (m)")
+    else:
+        ax.set_xlabel(f"easting − {origin[0]:.2f} (m)")
+        ax.set_ylabel(f"northing − {origin[1]:.2f} (m)")
     ax.text(0.99, 0.005, crs_name or "the input's own coordinates (no CRS)", transform=ax.transAxes,
             ha="right", va="bottom", fontsize=7, color="0.2",
             bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1})

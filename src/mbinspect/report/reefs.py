@@ -10,11 +10,11 @@ from typing import Any
 import numpy as np
 
 from ..outputs import atomic_path
-from .gis import crs_label, crs_of, write_gis
-from .html import html_page, html_table, json_dumps
-from .maps import mpl, plan_image, save_figure
+from .gis import crs_label, crs_name, crs_of, write_gis
+from .html import html_page, html_table, json_dumps, parameter_table, provenance_table, verdict_banner
+from .maps import map_furniture, mpl, plan_image, save_figure
 
-__all__ = ["reef_figures", "write_reef_outputs"]
+__all__ = ["reef_figures", "write_reef_outputs", "reef_verdicts"]
 
 
 _REEF_COLS = ["id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "width",
@@ -34,6 +34,69 @@ def _hillshade(z: np.ndarray, cell: float) -> np.ndarray:
     return np.where(np.isfinite(z), shade, np.nan)
 
 
+def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
+              bounds: list[float] | None = None) -> bytes:
+    """One reef map: shaded relief, outlines coloured by the score, others, legend, furniture."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Polygon as MplPolygon
+
+    plt = mpl()
+    p = np.asarray(points, np.float64)
+    span = float(np.ptp(p[:, :2], axis=0).max()) if bounds is None else max(bounds[2] - bounds[0],
+                                                                          bounds[3] - bounds[1])
+    cell = max(0.1 if bounds is not None else 0.2, span / 900.0)
+    img, ext = plan_image(p, cell=cell, bounds=bounds)
+    fig, ax = plt.subplots(figsize=(10, 8.5))
+    shown = ax.imshow(img, origin="lower", extent=ext, cmap="gist_earth", interpolation="nearest", alpha=0.9)
+    fig.colorbar(shown, ax=ax, label="elevation (m)", shrink=0.7)
+    ax.imshow(_hillshade(img, cell), origin="lower", extent=ext, cmap="gray", alpha=0.35,
+              interpolation="nearest")
+    colours = {}
+    ev = result.evaluation
+    if ev is not None:
+        matched = {i for i, _, _ in ev.matches}
+        colours = {i: ("tab:green" if i in matched else "tab:red") for i in range(len(result.reefs))}
+    for i, r in enumerate(result.reefs):
+        if r.outline:
+            ax.add_patch(MplPolygon(np.asarray(r.outline), closed=True, fill=False, lw=0.9,
+                                    ec=colours.get(i, "magenta")))
+        if len(result.reefs) <= 400:
+            ax.annotate(str(r.id), (r.x, r.y), fontsize=5 if bounds is None else 9, ha="center", va="center")
+    for o in result.others:
+        ax.plot(o["x"], o["y"], "x", color="orange", ms=4)
+    if ev is not None and result.reference_xy is not None:
+        ref = np.asarray(result.reference_xy)
+        miss = [j for j in ev.unmatched_references]
+        if miss:
+            ax.plot(ref[miss, 0], ref[miss, 1], "o", mfc="none", mec="blue", ms=8, label="FN (missed)")
+    if result.region is not None and result.region.excluded.any():
+        m = result.region
+        ex = np.where(m.excluded.T, 1.0, np.nan)
+        ax.imshow(ex, origin="lower", cmap="Reds", alpha=0.3, vmin=0, vmax=1.5,
+                  extent=[m.x0, m.x0 + m.excluded.shape[0] * m.cell, m.y0,
+                          m.y0 + m.excluded.shape[1] * m.cell])
+    title = heading
+    if ev is not None:
+        title += f" (green TP {ev.tp}, red FP {ev.fp}, blue circles FN {ev.fn})"
+    if result.region is not None and result.region.excluded.any():
+        title += "; red wash: excluded terrain"
+    ax.set_title(title, fontsize=10)
+    ax.set_aspect("equal")
+    ax.ticklabel_format(useOffset=False, style="plain")
+    if bounds is not None:
+        ax.set_xlim(bounds[0], bounds[2])
+        ax.set_ylim(bounds[1], bounds[3])
+    handles = [Line2D([], [], color="magenta" if ev is None else "tab:green", lw=1.5,
+                      label="reef outline" if ev is None else "reef matched (TP)")]
+    if ev is not None:
+        handles += [Line2D([], [], color="tab:red", lw=1.5, label="reef not in the reference (FP)"),
+                    Line2D([], [], marker="o", ls="", mfc="none", mec="blue", label="reference missed (FN)")]
+    handles.append(Line2D([], [], marker="x", ls="", color="orange", label="other object"))
+    ax.legend(handles=handles, loc="upper left", fontsize=8, framealpha=0.8)
+    map_furniture(ax, crs_name=crs_name(crs_of(result)), origin=None)
+    return save_figure(fig, path)
+
+
 def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]:
     """Reef figures: plan map, profiles per group, height histogram. Returns name -> PNG.
 
@@ -48,53 +111,17 @@ def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
     -------
     dict
     """
-    from matplotlib.patches import Polygon as MplPolygon
-
     plt = mpl()
     images: dict[str, bytes] = {}
-    p = np.asarray(points, np.float64)
-    span = float(np.ptp(p[:, :2], axis=0).max())
-    cell = max(0.2, span / 900.0)
-    img, ext = plan_image(p, cell=cell)
-    fig, ax = plt.subplots(figsize=(10, 8.5))
-    ax.imshow(img, origin="lower", extent=ext, cmap="gist_earth", interpolation="nearest", alpha=0.9)
-    ax.imshow(_hillshade(img, cell), origin="lower", extent=ext, cmap="gray", alpha=0.35,
-              interpolation="nearest")
-    colours = {}
-    ev = result.evaluation
-    if ev is not None:
-        matched = {i for i, _, _ in ev.matches}
-        colours = {i: ("tab:green" if i in matched else "tab:red") for i in range(len(result.reefs))}
-    for i, r in enumerate(result.reefs):
-        if r.outline:
-            ax.add_patch(MplPolygon(np.asarray(r.outline), closed=True, fill=False, lw=0.9,
-                                    ec=colours.get(i, "magenta")))
-        if len(result.reefs) <= 400:
-            ax.annotate(str(r.id), (r.x, r.y), fontsize=5, ha="center", va="center")
-    for o in result.others:
-        ax.plot(o["x"], o["y"], "x", color="orange", ms=4)
-    if ev is not None and result.reference_xy is not None:
-        ref = np.asarray(result.reference_xy)
-        miss = [j for j in ev.unmatched_references]
-        if miss:
-            ax.plot(ref[miss, 0], ref[miss, 1], "o", mfc="none", mec="blue", ms=8, label="FN (missed)")
-    if result.region is not None and result.region.excluded.any():
-        m = result.region
-        ex = np.where(m.excluded.T, 1.0, np.nan)
-        ax.imshow(ex, origin="lower", cmap="Reds", alpha=0.3, vmin=0, vmax=1.5,
-                  extent=[m.x0, m.x0 + m.excluded.shape[0] * m.cell, m.y0,
-                          m.y0 + m.excluded.shape[1] * m.cell])
-    title = "Reefs: outlines on shaded relief"
-    if ev is not None:
-        title += f" (green TP {ev.tp}, red FP {ev.fp}, blue circles FN {ev.fn})"
-    if result.region is not None and result.region.excluded.any():
-        title += "; red wash: excluded terrain"
-    ax.set_title(title, fontsize=10)
-    ax.set_xlabel("easting (m)")
-    ax.set_ylabel("northing (m)")
-    ax.set_aspect("equal")
-    ax.ticklabel_format(useOffset=False, style="plain")
-    images["plan"] = save_figure(fig, out / "plan.png")
+    images["plan"] = _reef_map(result, points, out / "plan.png", "Reefs: outlines on shaded relief")
+    if len(result.reefs) > 30:  # a readable map per group
+        for g in list(result.groups)[:12]:
+            members = [r for r in result.reefs if r.group == g["id"]]
+            xy = np.array([v for r in members for v in (r.outline or ((r.x, r.y),))])
+            lo, hi = xy.min(axis=0) - 4.0, xy.max(axis=0) + 4.0
+            images[f"groupmap{g['id']}"] = _reef_map(result, points, out / f"plan_group_{g['id']}.png",
+                                                  f"Group {g['id']}: {len(members)} reefs",
+                                                  [lo[0], lo[1], hi[0], hi[1]])
     if result.reefs:
         fig, ax = plt.subplots(figsize=(6.5, 3.8))
         ax.hist([r.height for r in result.reefs], bins=20, color="tab:blue", edgecolor="white")
@@ -121,6 +148,51 @@ def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
         fig.tight_layout()
         images["groups"] = save_figure(fig, out / "groups.png")
     return images
+
+
+_GROUP_HEAD = {"id": "group", "count": "reefs", "x": "easting (m)", "y": "northing (m)",
+               "area": "group area (m²)", "reef_area": "reef area (m²)", "mean_height": "mean height (m)"}
+_REEF_HEAD = {"id": "reef", "group": "group", "x": "easting (m)", "y": "northing (m)",
+              "z_seabed": "seabed (m)",
+              "z_top": "top (m)", "height": "height (m)", "area": "area (m²)", "length": "length (m)",
+              "width": "width (m)", "orientation_deg": "orientation (°)", "volume": "volume (m³)",
+              "envelope_volume": "envelope (m³)", "n_points": "soundings"}
+_DESIGN_HEAD = {"design": "design", "design_scale": "as built / design", "design_bearing_deg": "bearing (°)",
+                "design_misfit": "misfit"}
+
+
+def _reef_row(r: dict[str, Any]) -> dict[str, Any]:
+    fmt = {"x": ".2f", "y": ".2f", "z_seabed": ".2f", "z_top": ".2f", "height": ".2f", "area": ".2f",
+           "length": ".2f", "width": ".2f", "orientation_deg": ".0f", "volume": ".2f",
+           "envelope_volume": ".1f",
+           "design_scale": ".3f", "design_bearing_deg": ".0f", "design_misfit": ".2f"}
+    out = {}
+    for k, v in r.items():
+        out[k] = f"{v:{fmt[k]}}" if k in fmt and isinstance(v, (int, float)) else v
+    return out
+
+
+def reef_verdicts(result: Any) -> list[tuple[str, str]]:
+    """The reef report's first line: how many reefs, and against the reference how well.
+
+    Parameters
+    ----------
+    result : ReefResult
+
+    Returns
+    -------
+    list of (text, level)
+    """
+    n = len(result.reefs)
+    ev = result.evaluation
+    if ev is None:
+        return [(f"Reefs: {n} found in {len(result.groups)} groups, {len(result.others)} other objects; no "
+                 "reference to score against", "info")]
+    text = (f"Reefs: {n} found; against {ev.tp + ev.fn} reference reefs: TP {ev.tp}, FP {ev.fp}, FN {ev.fn}, "
+            f"correctness {100 * ev.correctness:.1f} %, completeness {100 * ev.completeness:.1f} %"
+            if n and ev.tp + ev.fn else f"Reefs: {n} found; TP {ev.tp}, FP {ev.fp}, FN {ev.fn}")
+    level = "pass" if ev.fp == 0 and ev.fn == 0 else "undecided" if ev.tp else "fail"
+    return [(text, level)]
 
 
 def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: bool = True,
@@ -158,39 +230,57 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
                          "properties": {c: r[c] for c in cols}})
     written = ["reefs.json", "reefs.csv", *write_gis(features, crs_of(result), out, "reefs")]
     images = reef_figures(result, points, out) if figures else {}
-    written += [f"{n}.png" for n in images]
+    written += [f"plan_group_{n[8:]}.png" if n.startswith("groupmap") else f"{n}.png" for n in images]
     ev = d["evaluation"]
-    sections = []
+    sections = [("Verdict", verdict_banner(reef_verdicts(result)))]
     if result.warnings:
         sections.append(("Warnings", "<ul>" + "".join(f"<li class='warn'>{html.escape(w)}</li>"
                                                       for w in result.warnings) + "</ul>"))
-    summary: list[dict[str, Any]] = [{"item": "coordinates", "value": crs_label(result)},
-               {"item": "reefs", "value": len(d["reefs"])},
-               {"item": "groups", "value": len(d["groups"])},
-               {"item": "other objects (< min area)", "value": len(d["others"])},
-               {"item": "seabed model", "value": d["seabed"].get("method")},
-               {"item": "seabed residual RMS (m)", "value": d["seabed"].get("residual_rms")}]
-    if ev is not None:
-        summary += [{"item": k, "value": ev[k]} for k in ("tp", "fp", "fn", "correctness",
-                                                          "completeness", "f1")]
+    summary: list[dict[str, Any]] = [
+        {"item": "coordinates", "value": crs_label(result)},
+        {"item": "reefs", "value": len(d["reefs"])},
+        {"item": "groups", "value": len(d["groups"])},
+        {"item": "other objects (smaller than min_area)", "value": len(d["others"])},
+        {"item": "seabed model", "value": d["seabed"].get("method")},
+        {"item": "seabed residual RMS (m)", "value": f"{d['seabed'].get('residual_rms', float('nan')):.3f}"}]
     sections.append(("Summary", html_table(summary, ["item", "value"])))
     if ev is not None:
         sections.append(("Scoring rule", f"<p>{html.escape(ev['counting'])}; tolerance "
                                          f"{ev['tolerance']} m.</p>"))
+        matches = [{"reference": m["reference"], "reef": m["reef"], "error": f"{m['distance']:.2f}"}
+                   for m in ev["matches"]]
+        matches += [{"reference": rid, "reef": "missed (FN)", "error": ""}
+                    for rid in ev["unmatched_references"]]
+        matches += [{"reference": "none (FP)", "reef": rid, "error": ""}
+                    for rid in ev["unmatched_reefs"]]
+        sections.append(("Match table", html_table(matches, ["reference", "reef", "error"],
+                                                   ["reference", "reef", "position error (m)"])))
     if images:
         sections.append(("Plan map", "{img:plan}"))
-    sections.append(("Groups", html_table(d["groups"], ["id", "count", "x", "y", "area",
-                                                        "reef_area", "mean_height"])))
+        for n in images:
+            if n.startswith("groupmap"):
+                sections.append((f"Group {n[8:]}: plan", "{img:" + n + "}"))
+    groups = [{"id": g["id"], "count": g["count"], "x": f"{g['x']:.2f}", "y": f"{g['y']:.2f}",
+               "area": f"{g['area']:.0f}", "reef_area": f"{g['reef_area']:.1f}",
+               "mean_height": f"{g['mean_height']:.2f}"} for g in d["groups"]]
+    sections.append(("Groups", html_table(groups, list(_GROUP_HEAD), list(_GROUP_HEAD.values()))))
     if "groups" in images:
         sections.append(("Profiles", "{img:groups}"))
     if "heights" in images:
         sections.append(("Heights", "{img:heights}"))
-    sections.append(("Reefs", html_table(d["reefs"], cols)))
+    head = {**_REEF_HEAD, **(_DESIGN_HEAD if result.parameters.get("design") else {})}
+    rows = [_reef_row(r) for r in d["reefs"]]
+    sections.append(("Reefs", html_table(rows, list(head), list(head.values()))))
     if d["others"]:
-        sections.append(("Other objects", html_table(d["others"], ["x", "y", "height", "area",
-                                                                   "n_points"])))
-    listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"], "parameters": d["parameters"]})
-    sections.append(("Filters and parameters", f"<pre>{html.escape(listing)}</pre>"))
+        others = [{"x": f"{o['x']:.2f}", "y": f"{o['y']:.2f}", "height": f"{o['height']:.2f}",
+                   "area": f"{o['area']:.2f}", "n_points": o["n_points"]} for o in d["others"]]
+        sections.append(("Other objects", html_table(others, ["x", "y", "height", "area", "n_points"],
+                                                     ["easting (m)", "northing (m)", "height (m)",
+                                                      "area (m²)", "soundings"])))
+    listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"]})
+    sections.append(("Filters and seabed", f"<pre>{html.escape(listing)}</pre>"))
+    sections.append(("Input and software", provenance_table(d["parameters"])))
+    sections.append(("Parameters", parameter_table(d["parameters"])))
     with atomic_path(out / "report.html") as tmp:
         tmp.write_text(html_page(title, sections, images), encoding="utf-8")
     written.append("report.html")
