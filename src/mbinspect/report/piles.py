@@ -208,8 +208,9 @@ def pile_verdicts(result: Any) -> list[tuple[str, str]]:
         said = {"pass": "frame fits", "fail": "frame FAILS", "undecided": "frame fit undecided"}
         head = f"Jacket {g}: " + (said[frames[g].verdict] + ", " if g in frames else "")
         fails = sum(s.verdict == "fail" for s in sp)
+        open_ = sum(s.verdict == "undecided" for s in sp)
         lines.append((head + f"{sum(s.verdict == 'pass' for s in sp)} of {len(sp)} spacings pass at 95 %"
-                      + (f", {fails} fail" if fails else ""), level))
+                      + (f", {fails} fail" if fails else "") + (f", {open_} undecided" if open_ else ""), level))
     if not lines:
         n_groups = len({p.group for p in result.piles})
         lines.append((f"{len(result.piles)} piles located in {n_groups} jacket(s), {len(result.spacings)} "
