@@ -209,8 +209,9 @@ def pile_verdicts(result: Any) -> list[tuple[str, str]]:
         head = f"Jacket {g}: " + (said[frames[g].verdict] + ", " if g in frames else "")
         fails = sum(s.verdict == "fail" for s in sp)
         open_ = sum(s.verdict == "undecided" for s in sp)
-        lines.append((head + f"{sum(s.verdict == 'pass' for s in sp)} of {len(sp)} spacings pass at 95 %"
-                      + (f", {fails} fail" if fails else "") + (f", {open_} undecided" if open_ else ""), level))
+        text = head + f"{sum(s.verdict == 'pass' for s in sp)} of {len(sp)} spacings pass at 95 %"
+        text += (f", {fails} fail" if fails else "") + (f", {open_} undecided" if open_ else "")
+        lines.append((text, level))
     if not lines:
         n_groups = len({p.group for p in result.piles})
         lines.append((f"{len(result.piles)} piles located in {n_groups} jacket(s), {len(result.spacings)} "
