@@ -356,3 +356,26 @@ def test_the_report_a_client_accepts(wharf, tmp_path):
     assert "sha256" in page and "mbinspect -q piles" in page and "WGS 84 / UTM zone 17N (EPSG:32617)" in page
     assert '"radius": 0.6' not in page  # parameters as a table, not raw JSON
     assert parts.images >= 3 + 1 + 12  # per-jacket plans, the overview, each pile
+
+
+def test_a_design_drawn_in_a_local_frame_is_matched_jacket_by_jacket(wharf):
+    site = wharf.truth["design"]
+    local_pos, groups = {}, {}
+    for g in (1, 2, 3):
+        members = [d for d in site if d["group"] == g]
+        x0, y0 = members[0]["x"], members[0]["y"]
+        for d in members:  # each jacket drawn from its own first pile, in its own frame
+            local_pos[d["id"]] = (d["x"] - x0, d["y"] - y0)
+            groups[d["id"]] = g
+    with_site = locate_piles(wharf.cloud, radius=0.6, design=Design(
+        positions={d["id"]: (d["x"], d["y"]) for d in site}, groups=groups))
+    with_local = locate_piles(wharf.cloud, radius=0.6, design=Design(positions=local_pos, groups=groups))
+    assert not with_local.warnings
+    assert [(p.id, p.group) for p in with_local.piles] == [(p.id, p.group) for p in with_site.piles]
+    for a, b in zip(with_local.spacings, with_site.spacings, strict=True):
+        assert (a.a, a.b, a.verdict) == (b.a, b.b, b.verdict) and abs(a.deviation - b.deviation) < 1e-9
+    for fa, fb in zip(with_local.frames, with_site.frames, strict=True):
+        assert fa.verdict == fb.verdict
+        # the same fit from another frame, to a tenth of a millimetre (the solver's convergence)
+        assert all(abs(qa["miss"] - qb["miss"]) < 1e-4 for qa, qb in zip(fa.residuals, fb.residuals,
+                                                                          strict=True))

@@ -17,8 +17,9 @@ __all__ = ["group_piles", "jacket_groups"]
 def jacket_groups(xy: np.ndarray, *, ratio: float = 1.3) -> np.ndarray:
     """Jackets among pile centres: piles of one jacket lie closer than the gap between jackets.
 
-    The minimum spanning tree of the centres is cut at its largest jump in edge length,
-    when the longer edge exceeds the shorter by ``ratio``; otherwise all piles are one group.
+    The minimum spanning tree of the centres is cut at its largest jump in edge length
+    that exceeds ``ratio`` and leaves every jacket at least three piles; otherwise all piles
+    are one group.
 
     Parameters
     ----------
@@ -37,6 +38,8 @@ def jacket_groups(xy: np.ndarray, *, ratio: float = 1.3) -> np.ndarray:
     >>> sq = np.array([[0, 0], [14, 0], [0, 14], [14, 14]], float)
     >>> jacket_groups(np.vstack([sq, sq + [40, 0]])).tolist()
     [1, 1, 1, 1, 2, 2, 2, 2]
+    >>> jacket_groups(np.array([[0, 0], [10, 0], [0, 14], [10, 14]], float)).tolist()  # one rectangle
+    [1, 1, 1, 1]
     """
     xy = np.asarray(xy, np.float64)
     if len(xy) < 3:
@@ -44,11 +47,19 @@ def jacket_groups(xy: np.ndarray, *, ratio: float = 1.3) -> np.ndarray:
     tree = minimum_spanning_tree(squareform(pdist(xy))).toarray()
     edges = np.sort(tree[tree > 0])
     jumps = edges[1:] / np.maximum(edges[:-1], 1e-9)
-    if not len(jumps) or jumps.max() < ratio:
+    labels = np.zeros(len(xy), dtype=np.int64)
+    # the largest jumps first; a cut stands only if every jacket keeps three piles or more
+    # (a rectangular jacket's long side is a jump too, but would leave pairs)
+    for k in np.argsort(-jumps):
+        if jumps[k] < ratio:
+            break
+        cut = float(np.sqrt(edges[k] * edges[k + 1]))
+        _, trial = connected_components(np.where(tree > cut, 0, tree), directed=False)
+        if np.bincount(trial).min() >= 3:
+            labels = trial
+            break
+    if labels.max() == 0:
         return np.ones(len(xy), dtype=np.int64)
-    cut = float(np.sqrt(edges[np.argmax(jumps)] * edges[np.argmax(jumps) + 1]))
-    tree[tree > cut] = 0
-    _, labels = connected_components(tree, directed=False)
     centres = np.array([xy[labels == k].mean(axis=0) for k in range(labels.max() + 1)])
     order = np.lexsort((centres[:, 1], centres[:, 0]))
     rank = np.empty_like(order)
