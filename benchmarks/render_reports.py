@@ -32,7 +32,7 @@ def render(html: Path, png: Path, height: int) -> None:
 
 
 def main() -> None:
-    out = Path(sys.argv[1] if len(sys.argv) > 1 else "report-screenshots")
+    out = Path(sys.argv[1] if len(sys.argv) > 1 else "report-screenshots").resolve()
     out.mkdir(parents=True, exist_ok=True)
     work = out / "work"
     shutil.rmtree(work, ignore_errors=True)

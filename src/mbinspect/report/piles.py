@@ -56,6 +56,12 @@ def _plan(result: Any, points: np.ndarray, piles: list[Any], spacings: list[Any]
         ax.annotate(f"{p.id}", (p.x - ref[0], p.y - ref[1]), xytext=(10 * out_dir[0], 10 * out_dir[1]),
                     textcoords="offset points", color="red", fontsize=11, weight="bold",
                     ha="left" if out_dir[0] > 0 else "right", va="bottom" if out_dir[1] > 0 else "top")
+    from matplotlib.lines import Line2D
+    handles = [Line2D([], [], marker="o", ls="", mfc="none", mec="red", ms=9, label="fitted pile top"),
+               Line2D([], [], color="0.5", lw=1.2, label="spacing (m; mm vs design)"),
+               Line2D([], [], marker="s", ls="", color="darkorange", label="undecided at 95 % (text)"),
+               Line2D([], [], marker="s", ls="", color="darkred", label="fails tolerance (text)")]
+    ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85)
     ax.set_title(title, fontsize=10)
     ax.set_aspect("equal")
     map_furniture(ax, crs_name=crs_name(crs_of(result)), origin=(float(ref[0]), float(ref[1])))
