@@ -1,0 +1,93 @@
+"""The seabed-noise measurement: known noise recovered from simulated swaths and read from real files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.noise import noise_profile, seabed_residuals
+from mbinspect.sonar import read_sonar, to_cloud
+
+DATA = Path(__file__).parent / "data"
+
+
+def swath(rng, *, pings=120, beams=128, depth=20.0, sigma_at=lambda a: 0.03 + 0.0 * a, ping_sd=0.0,
+          tails=None, ping_gap=0.4):
+    """Pings ``ping_gap`` m apart, beams over ±60°, a sloping rippled seabed; noise by beam angle."""
+    ang = np.linspace(-60, 60, beams)
+    across = depth * np.tan(np.radians(ang))
+    p, b = np.meshgrid(np.arange(pings), np.arange(beams), indexing="ij")
+    x = across[b] + rng.uniform(-0.05, 0.05, p.shape)
+    y = ping_gap * p + 0.01 * across[b] + rng.uniform(-0.05, 0.05, p.shape)
+    seabed = -depth + 0.02 * x + 0.2 * np.sin(y / 7.0)
+    noise = rng.normal(0, 1, p.shape) if tails is None else rng.standard_t(tails, p.shape)
+    z = seabed + sigma_at(np.abs(ang[b])) * noise + ping_sd * rng.normal(0, 1, pings)[:, None]
+    fields = {"ping": p.ravel(), "beam": b.ravel(), "beam_angle": ang[b].ravel()}
+    return np.column_stack([x.ravel(), y.ravel(), z.ravel()]), fields
+
+
+def test_known_noise_by_beam_angle_is_recovered():
+    rng = np.random.default_rng(4)
+    pts, f = swath(rng, sigma_at=lambda a: 0.02 + 0.04 * (a / 60) ** 2)
+    prof = noise_profile(pts, f)
+    for row in prof.by_angle:
+        mid = np.mean(row["angles"])
+        lo, hi = row["angles"]
+        # the true sigma spans the bin: compare with its RMS over the bin's beams
+        a = np.abs(f["beam_angle"])
+        a = a[(a >= lo) & (a < hi)]
+        truth = np.sqrt(np.mean((0.02 + 0.04 * (a / 60) ** 2) ** 2))
+        assert row["sigma"] == pytest.approx(truth, rel=0.12), mid
+        assert abs(row["bias"]) < 0.004
+    assert 2.3 < prof.p99_ratio < 4.0  # normals of different widths: a little heavier than one
+    assert abs(prof.beam_correlation) < 0.15
+    # a ping's residuals are taken against its neighbour pings' planes and theirs against its:
+    # independent noise shows a small negative correlation from ping to ping (-0.10 to -0.15)
+    assert -0.25 < prof.ping_correlation < 0.05
+
+
+def test_heavy_tails_and_ping_wide_errors_are_seen():
+    rng = np.random.default_rng(5)
+    pts, f = swath(rng, tails=3)
+    assert noise_profile(pts, f).p99_ratio > 4.5  # Student t, 3 degrees of freedom (5.2 expected)
+    pts, f = swath(rng, ping_sd=0.03)  # heave: 3 cm per ping beside 3 cm per sounding
+    prof = noise_profile(pts, f)
+    assert prof.sigma == pytest.approx(np.hypot(0.03, 0.03), rel=0.2)  # 120 pings' heave: a noisy sample
+    assert prof.ping_share == pytest.approx(0.5, abs=0.2)
+    assert prof.beam_correlation > 0.3
+    # beams far closer than pings (shallow water): without the ping numbers the neighbours
+    # are the ping's own beams and the heave cancels out of the residuals
+    pts, f = swath(rng, pings=40, beams=512, ping_gap=1.5, ping_sd=0.03)
+    with_pings = noise_profile(pts, f)
+    assert with_pings.ping_share == pytest.approx(0.5, abs=0.2)
+    assert seabed_residuals(pts).std() < 0.8 * with_pings.std
+
+
+def test_origin_does_not_matter_and_bad_input_is_refused():
+    rng = np.random.default_rng(6)
+    pts, f = swath(rng, pings=30, beams=40)
+    shifted = pts + [500_000.0, 5_700_000.0, 0.0]
+    np.testing.assert_allclose(seabed_residuals(shifted, ping=f["ping"]),
+                               seabed_residuals(pts, ping=f["ping"]), atol=1e-6)
+    with pytest.raises(InputError, match="expected at least 17"):
+        seabed_residuals(pts[:10])
+    with pytest.raises(ParameterError, match="k"):
+        seabed_residuals(pts, k=2)
+
+
+@pytest.mark.parametrize(("name", "sigma_cm"), [("Belgica_0077.all", (1.5, 4.0)),
+                                                ("pdal_mbf_em300raw.mb56", (1.5, 4.0))])
+def test_real_shallow_files(name, sigma_cm):
+    """Flat shallow seabeds: centimetre noise with tails heavier than normal (RESULTS.md)."""
+    fmt = "all"
+    cloud = to_cloud(read_sonar(DATA / name, fmt))
+    prof = noise_profile(cloud.xyz, cloud.fields)
+    assert sigma_cm[0] < 100 * prof.sigma < sigma_cm[1]
+    assert prof.p99_ratio > 3.0
+    assert len(prof.by_angle) >= 3
+    # backscatter falls away from nadir on both flat files
+    med = [b["intensity_median"] for b in prof.by_angle]
+    assert med[0] > min(med[1:])
