@@ -280,6 +280,44 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
     return 0
 
 
+# ----------------------------------------------------------------------------- inject
+
+
+def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
+    import numpy as np
+
+    from .inject import inject_piles, read_pile_file
+    from .io import PointCloud, write
+    from .outputs import output_dir, write_json, write_table
+
+    _check_input(args)
+    piles = read_pile_file(args.piles)
+    out = Path(args.out or "inject-out")
+    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, args.piles]) as tmp:
+        cloud = _read_input(args, rep)
+        t = time.perf_counter()
+        inj = inject_piles(cloud.xyz, cloud.fields, piles)
+        rep.debug(f"injected {len(piles)} piles in {time.perf_counter() - t:.2f} s")
+        injected = PointCloud(inj.xyz, dict(cloud.fields), source=cloud.source, crs=cloud.crs,
+                              meta=dict(cloud.meta))
+        write(injected, tmp / "soundings.npz")
+        truth = {**inj.to_dict(), "survey": _file_record(args.input), "command_line": ["mbinspect", *argv]}
+        write_json(truth, tmp / "truth.json")
+        np.savez_compressed(tmp / "labels.npz", label=inj.labels, ident=inj.ident)
+        write_table(inj.truth["design"], tmp / "design.csv", ["group", "id", "x", "y"])
+    counts = inj.truth["counts"]
+    per = ", ".join(f"pile {k}: {v:,}" for k, v in counts["per_pile"].items())
+    rep.info(f"{len(piles)} piles injected into {len(cloud):,} soundings ({per}); written to "
+             f"{out}/soundings.npz with truth.json and design.csv")
+    if counts["without_ping_geometry"]:
+        print(f"mbinspect: warning: {counts['without_ping_geometry']:,} soundings of pings too short to "
+              "place their transducer were left as they were", file=sys.stderr)
+    for k, v in counts["per_pile"].items():
+        if v == 0:
+            print(f"mbinspect: warning: pile {k}: no beam of the survey reaches it", file=sys.stderr)
+    return 0
+
+
 # ----------------------------------------------------------------------------- piles
 
 
@@ -474,6 +512,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help="list the preset's options and defaults, then stop")
     _add_simulate_options(p)
     p.set_defaults(func=_cmd_simulate)
+
+    p = _sub(sub, "inject", "put known piles into a real survey (its own noise and shadows)",
+             "Put piles of known position into a real survey: every sounding whose beam meets a pile "
+             "is moved to the hit point and then along its beam by its own seabed residual, so the "
+             "piles carry the survey's real noise and cast its real shadows. Needs the ping and "
+             "beam angle of each sounding (GSF, KMALL, .all, or an .npz that keeps them). Writes "
+             "soundings.npz, truth.json (as simulate writes it), labels.npz and design.csv.",
+             "example:\n  mbinspect inject line.all --piles piles.csv --out injected\n"
+             "  mbinspect piles injected/soundings.npz --radius 0.5 --design injected/design.csv\n\n"
+             "piles.csv: id,x,y,radius and top (elevation, m) or height (above the seabed, m);\n"
+             "optional tilt_deg, tilt_azimuth_deg, group")
+    _add_input(p)
+    p.add_argument("--piles", metavar="CSV", required=True, help="the piles to inject (see below)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default inject-out)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
+    p.set_defaults(func=_cmd_inject)
 
     p = _sub(sub, "piles", "locate piles and every pile spacing",
              "Locate underwater piles (top centre, radius, tilt) and every pile-to-pile spacing; "

@@ -37,7 +37,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -518,6 +518,80 @@ def _box_target(box: Box, kind: int, ident: int, material: str) -> _Target:
                    _bind(_hit_box, box))
 
 
+def _first_object_hits(targets: list[_Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
+                       ) -> Iterator[tuple[_Target, np.ndarray, np.ndarray, np.ndarray]]:
+    """For each target, the rays that meet it before ``t`` (updated in place as they do):
+    yields the target, those rays' indices, their ray parameters and surface normals."""
+    if not targets:
+        return
+    p = o + t[:, None] * d
+    ztop = max(tg.top for tg in targets)
+    t_top = np.clip((ztop - o[:, 2]) / d[:, 2], 0.0, None)
+    q = o + np.minimum(t_top, t)[:, None] * d
+    sx0 = np.minimum(q[:, 0], p[:, 0])
+    sx1 = np.maximum(q[:, 0], p[:, 0])
+    sy0 = np.minimum(q[:, 1], p[:, 1])
+    sy1 = np.maximum(q[:, 1], p[:, 1])
+    order = np.argsort(sx0)
+    sx0s = sx0[order]
+    for tg in targets:
+        xmin, xmax, ymin, ymax = tg.bbox
+        stop = np.searchsorted(sx0s, xmax, side="right")
+        cand = order[:stop]
+        cand = cand[(sx1[cand] >= xmin) & (sy0[cand] <= ymax) & (sy1[cand] >= ymin)]
+        if len(cand) == 0:
+            continue
+        tt, nn = tg.hit(o[cand], d[cand])
+        better = tt < t[cand]
+        if not better.any():
+            continue
+        idx = cand[better]
+        t[idx] = tt[better]
+        yield tg, idx, tt[better], nn[better]
+
+
+def hit_objects(scene: Scene, o: np.ndarray, d: np.ndarray, t_max: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The first hit of each ray on the scene's objects (piles, reefs, boulders, debris) before ``t_max``.
+
+    The scene's seabed is not used: ``t_max`` is where each ray meets the seabed (a real
+    sounding, for :mod:`mbinspect.inject`).
+
+    Parameters
+    ----------
+    scene : Scene
+        The objects, in the same coordinates as ``o``.
+    o, d : ndarray, shape (N, 3)
+        Ray origins and unit directions.
+    t_max : ndarray, shape (N,)
+        Ray parameter of the seabed.
+
+    Returns
+    -------
+    t : ndarray, shape (N,)
+        Ray parameter of the first hit (``t_max`` where no object is hit first).
+    label : ndarray of int8
+        :data:`LABELS` code of what was hit (0: the seabed).
+    ident : ndarray of int32
+        The object's id (1-based pile index, reef id, ...), 0 for the seabed.
+
+    Examples
+    --------
+    >>> scene = Scene(Seabed(z0=-10.0), piles=(Pile(0.0, 0.0, -5.0, 1.0),))
+    >>> o = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]]); d = np.array([[0.0, 0.0, -1.0]] * 2)
+    >>> t, label, ident = hit_objects(scene, o, d, np.array([10.0, 10.0]))
+    >>> t.tolist(), label.tolist()
+    ([5.0, 10.0], [1, 0])
+    """
+    t = np.array(t_max, dtype=float)
+    label = np.full(len(t), LABELS["seabed"], dtype=np.int8)
+    ident = np.zeros(len(t), dtype=np.int32)
+    for tg, idx, _, _ in _first_object_hits(_targets(scene), o, d, t):
+        label[idx] = tg.kind
+        ident[idx] = tg.ident
+    return t, label, ident
+
+
 def _cast(scene: Scene, targets: list[_Target], o: np.ndarray, d: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """First hit of every ray: t, label, object id, surface normal, material index."""
@@ -530,35 +604,13 @@ def _cast(scene: Scene, targets: list[_Target], o: np.ndarray, d: np.ndarray
     ident = np.zeros(len(t), dtype=np.int32)
     materials = ["sediment"]
     mat = np.zeros(len(t), dtype=np.int8)
-    if targets:
-        ztop = max(tg.top for tg in targets)
-        t_top = np.clip((ztop - o[:, 2]) / d[:, 2], 0.0, None)
-        q = o + np.minimum(t_top, t)[:, None] * d
-        sx0 = np.minimum(q[:, 0], p[:, 0])
-        sx1 = np.maximum(q[:, 0], p[:, 0])
-        sy0 = np.minimum(q[:, 1], p[:, 1])
-        sy1 = np.maximum(q[:, 1], p[:, 1])
-        order = np.argsort(sx0)
-        sx0s = sx0[order]
-        for tg in targets:
-            xmin, xmax, ymin, ymax = tg.bbox
-            stop = np.searchsorted(sx0s, xmax, side="right")
-            cand = order[:stop]
-            cand = cand[(sx1[cand] >= xmin) & (sy0[cand] <= ymax) & (sy1[cand] >= ymin)]
-            if len(cand) == 0:
-                continue
-            tt, nn = tg.hit(o[cand], d[cand])
-            better = tt < t[cand]
-            if not better.any():
-                continue
-            idx = cand[better]
-            t[idx] = tt[better]
-            normal[idx] = nn[better]
-            label[idx] = tg.kind
-            ident[idx] = tg.ident
-            if tg.material not in materials:
-                materials.append(tg.material)
-            mat[idx] = materials.index(tg.material)
+    for tg, idx, _, nn in _first_object_hits(targets, o, d, t):
+        normal[idx] = nn
+        label[idx] = tg.kind
+        ident[idx] = tg.ident
+        if tg.material not in materials:
+            materials.append(tg.material)
+        mat[idx] = materials.index(tg.material)
     return t, label, ident, normal, materials
 
 

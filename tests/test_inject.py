@@ -1,0 +1,108 @@
+"""Piles injected into real surveys: on the cylinder, with the survey's noise, shadows, and the CLI."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mbinspect.cli import main
+from mbinspect.errors import InputError
+from mbinspect.inject import InjectedPile, inject_piles, ping_origins
+from mbinspect.io import read
+from mbinspect.noise import seabed_residuals
+
+DATA = Path(__file__).parent / "data"
+SURVEY = DATA / "pdal_mbf_em300raw.mb56"  # EM3000, 4.5 m, 67 pings, flat
+
+
+def test_ping_origins_on_a_sloping_rough_swath():
+    rng = np.random.default_rng(2)
+    ang = np.linspace(-65, 65, 101)
+    pts, pings, angles, truth = [], [], [], []
+    for k in range(20):
+        o = np.array([10.0 + 0.3 * k, 5.0 + 2.0 * k, 0.5])
+        across = np.array([np.cos(0.3), -np.sin(0.3)])
+        # the seabed sloping 2 % across, with 3 cm of noise
+        h = 18.0 + 0.02 * 18.0 * np.tan(np.radians(ang))
+        xy = o[:2] + np.outer(h * np.tan(np.radians(ang)), across)
+        pts.append(np.column_stack([xy, o[2] - h + rng.normal(0, 0.03, len(ang))]))
+        pings.append(np.full(len(ang), k))
+        angles.append(ang)
+        truth.append(np.tile(o, (len(ang), 1)))
+    est, ok = ping_origins(np.concatenate(pts), np.concatenate(pings), np.concatenate(angles))
+    assert ok.all()
+    err = np.abs(est - np.concatenate(truth))
+    assert err[:, :2].max() < 0.4 and err[:, 2].max() < 0.5  # 2 % of 18 m: within a degree of angle
+
+
+def _piles(cloud, height=2.0):
+    cx, cy = cloud.xyz[:, :2].mean(axis=0)
+    return [InjectedPile(1, cx - 2.5, cy, 0.5, height=height),
+            InjectedPile(2, cx + 2.5, cy, 0.5, height=height)]
+
+
+def test_injected_piles_carry_the_surveys_noise_and_shadows():
+    cloud = read(SURVEY)
+    piles = _piles(cloud)
+    inj = inject_piles(cloud.xyz, cloud.fields, piles)
+    resid = seabed_residuals(cloud.xyz, ping=cloud.fields["ping"])
+    moved = inj.labels > 0
+    assert not np.array_equal(cloud.xyz, inj.xyz) and np.array_equal(cloud.xyz[~moved], inj.xyz[~moved])
+    for p in inj.truth["piles"]:
+        on = inj.ident == p["id"]
+        assert on.sum() > 40
+        q = inj.xyz[on]
+        radial = np.hypot(q[:, 0] - p["x"], q[:, 1] - p["y"])
+        side = q[:, 2] < p["z"] - 0.1
+        top = ~side
+        # side soundings on the cylinder, top soundings on the top face, each off by its own residual
+        assert np.median(np.abs(radial[side] - p["radius"])) < 3 * np.median(np.abs(resid)) + 0.01
+        if top.any():
+            assert abs(np.median(q[top, 2]) - p["z"]) < 0.03
+            # an oblique beam's residual moves it sideways too: the bulk stays on the face
+            assert np.quantile(radial[top], 0.9) < p["radius"] + 0.05
+        assert p["z"] == pytest.approx(p["seabed_z"] + 2.0)
+    # shadows: no seabed sounding is left inside a pile's footprint
+    for p in inj.truth["piles"]:
+        inside = np.hypot(inj.xyz[:, 0] - p["x"], inj.xyz[:, 1] - p["y"]) < p["radius"] - 0.05
+        assert (inj.labels[inside] > 0).all()
+    assert inj.truth["counts"]["on_piles"] == int(moved.sum())
+    assert inj.truth["spacings"][0]["distance"] == pytest.approx(5.0)
+
+
+def test_inject_refuses_what_it_cannot_do():
+    cloud = read(SURVEY)
+    with pytest.raises(InputError, match="no ping or beam_angle"):
+        inject_piles(cloud.xyz, {}, _piles(cloud))
+    cx, cy = cloud.xyz[:, :2].mean(axis=0)
+    with pytest.raises(InputError, match="overlap"):
+        inject_piles(cloud.xyz, cloud.fields, [InjectedPile(1, cx, cy, 0.5, height=1),
+                                               InjectedPile(2, cx + 0.8, cy, 0.5, height=1)])
+    with pytest.raises(InputError, match="expected a pile inside the survey"):
+        inject_piles(cloud.xyz, cloud.fields, [InjectedPile(1, cx + 500, cy, 0.5, height=1)])
+
+
+def test_inject_command(tmp_path, capsys):
+    cloud = read(SURVEY)
+    rows = ["id,x,y,radius,height"] + [f"{p.id},{p.x:.3f},{p.y:.3f},{p.radius},{p.height}"
+                                       for p in _piles(cloud)]
+    (tmp_path / "piles.csv").write_text("\n".join(rows) + "\n")
+    out = tmp_path / "inj"
+    assert main(["inject", str(SURVEY), "--piles", str(tmp_path / "piles.csv"), "--out", str(out)]) == 0
+    truth = json.loads((out / "truth.json").read_text())
+    assert [p["id"] for p in truth["piles"]] == [1, 2] and truth["survey"]["sha256"]
+    back = read(out / "soundings.npz")
+    assert len(back) == len(cloud) and "ping" in back.fields
+    labels = np.load(out / "labels.npz")["label"]
+    assert (labels > 0).sum() == truth["counts"]["on_piles"]
+    assert (out / "design.csv").read_text().startswith("group,id,x,y")
+    # bad pile files: one line naming the file, line and column
+    (tmp_path / "bad.csv").write_text("id,x,y,radius,top\n1,2,3,abc,-1\n")
+    bad = ["inject", str(SURVEY), "--piles", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "b")]
+    assert main(bad) == 2
+    err = capsys.readouterr().err
+    assert "bad.csv: line 2, column radius: 'abc'; expected a number" in err
+    assert not (tmp_path / "b").exists()
