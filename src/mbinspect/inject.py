@@ -175,7 +175,8 @@ def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence
         scene_piles.append(Pile(p.x - origin[0], p.y - origin[1], top, p.radius, p.tilt_deg,
                                 p.tilt_azimuth_deg, bottom_z=seabed - 5.0))
         truth_piles.append({"id": p.id, "x": p.x, "y": p.y, "z": top, "radius": p.radius,
-                            "tilt_deg": p.tilt_deg, "tilt_azimuth_deg": p.tilt_azimuth_deg % 360.0, "group": p.group,
+                            "tilt_deg": p.tilt_deg, "tilt_azimuth_deg": p.tilt_azimuth_deg % 360.0,
+                            "group": p.group,
                             "seabed_z": seabed})
     labels = np.zeros(len(pts), np.int8)
     ident = np.zeros(len(pts), np.int32)
