@@ -10,8 +10,8 @@ common to a whole ping, and the backscatter's median and robust spread by angle.
 
 Relief at the scale of the local plane (ripples, rocks) counts as noise here, so rough
 seabeds give an upper bound. Files with fewer than 200 valid soundings are skipped. The
-last rows are the simulator's ``jacket`` and ``reef-field`` presets (seed 0, the seabed
-soundings of line 1), measured the same way.
+last rows are the simulator's presets (seed 0, the seabed soundings of line 1; defaults,
+then heavy tails and wider speckle), measured the same way.
 """
 
 from __future__ import annotations
@@ -33,6 +33,8 @@ from mbinspect.simulate import simulate  # noqa: E402
 from mbinspect.sonar import read_sonar, to_cloud  # noqa: E402
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "real"
+#: the simulator's rows: preset and options
+SIMULATED = [("jacket", {}), ("reef-field", {}), ("reef-field", {"tail_dof": 2.5, "speckle_db": 5})]
 
 
 def _cm(v: float | None) -> str:
@@ -55,15 +57,15 @@ def _clouds(simulator: bool) -> Iterator[tuple[str, PointCloud]]:
         if len(cloud.xyz) >= 200:
             yield path.name, cloud
     if simulator:
-        for preset in ("jacket", "reef-field"):
-            sim = simulate(preset, seed=0)
+        for preset, kw in SIMULATED:
+            sim = simulate(preset, seed=0, **kw)
             # one line's seabed soundings: what a real line file holds (no piles, no reefs)
             keep = (sim.labels == 0) & (sim.cloud.fields["line"] == 1)
             fields = {k: v[keep] for k, v in sim.cloud.fields.items()}
             # beam numbers from the fan's angles (the simulator does not record them)
             fields["beam"] = np.unique(np.round(fields["beam_angle"], 4), return_inverse=True)[1]
             cloud = PointCloud(sim.cloud.xyz[keep], fields, meta={"sonar": "simulator"})
-            yield f"simulator {preset} (seabed, line 1)", cloud
+            yield f"sim {preset} " + (" ".join(f"{k}={v}" for k, v in kw.items()) or "default"), cloud
 
 
 def main() -> None:

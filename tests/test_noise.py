@@ -91,3 +91,20 @@ def test_real_shallow_files(name, sigma_cm):
     # backscatter falls away from nadir on both flat files
     med = [b["intensity_median"] for b in prof.by_angle]
     assert med[0] > min(med[1:])
+
+
+def test_simulator_heavy_tails_option():
+    """``tail_dof`` gives the simulator the heavy tails real files show, at the same robust sigma."""
+    from mbinspect.simulate import simulate
+
+    profiles = []
+    for dof in (0, 2.5):
+        sim = simulate("reef-field", seed=0, tail_dof=dof, per_group=4)
+        keep = (sim.labels == 0) & (sim.cloud.fields["line"] == 1)
+        fields = {k: v[keep] for k, v in sim.cloud.fields.items()}
+        profiles.append(noise_profile(sim.cloud.xyz[keep], fields))
+    normal, heavy = profiles
+    assert normal.p99_ratio < 3.0 < 3.5 < heavy.p99_ratio
+    assert heavy.sigma == pytest.approx(normal.sigma, rel=0.15)
+    with pytest.raises(ParameterError, match="tail_dof"):
+        simulate("reef-field", tail_dof=1.5)
