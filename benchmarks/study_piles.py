@@ -30,6 +30,8 @@ CONFIGS: dict[str, tuple[dict, dict]] = {
     # three jackets of 0.6 m piles (vertical, battered 1:6 and 1:4), no count given: the
     # jackets are found from the spacing and the spacings taken within each
     "wharf": ({"preset": "wharf"}, {"radius": 0.6, "count": None}),
+    # the heavy tails and backscatter spread of real files (benchmarks/real_noise.py)
+    "real-tails": ({"tail_dof": 2.5, "speckle_db": 5.0}, {}),
 }
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from .errors import InputError
 from .noise import seabed_residuals
-from .simulate import LABELS, Pile, Scene, Seabed, hit_objects
+from .simulate import LABELS, Pile, Scene, Seabed, hit_objects, truth_spacings
 
 __all__ = ["InjectedPile", "Injection", "inject_piles", "ping_origins", "read_pile_file"]
 
@@ -196,8 +196,7 @@ def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence
             out[rows[hit]] = moved + [origin[0], origin[1], 0.0]
             labels[rows[hit]] = lab[hit]
             ident[rows[hit]] = idn[hit]
-    spacings = [{"a": a["id"], "b": b["id"], "distance": math.hypot(a["x"] - b["x"], a["y"] - b["y"])}
-                for a, b in itertools.combinations(truth_piles, 2)]
+    spacings = truth_spacings(truth_piles)
     counts = {"soundings": int(len(pts)), "on_piles": int((labels == LABELS["pile"]).sum()),
               "per_pile": {str(p["id"]): int((ident == p["id"]).sum()) for p in truth_piles},
               "without_ping_geometry": int((~ok).sum())}

@@ -1287,6 +1287,18 @@ def _check_options(opt: Any, sonar: Sonar) -> None:
                        f"close_pairs + touching_pairs at most {most} (half the {2 * most} reefs)")
 
 
+def truth_spacings(piles: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every pair's plan distance, as truth files hold it: ``{"a", "b", "distance"}``.
+
+    Examples
+    --------
+    >>> truth_spacings([{"id": 1, "x": 0.0, "y": 0.0}, {"id": 2, "x": 3.0, "y": 4.0}])
+    [{'a': 1, 'b': 2, 'distance': 5.0}]
+    """
+    return [{"a": a["id"], "b": b["id"], "distance": math.hypot(a["x"] - b["x"], a["y"] - b["y"])}
+            for a, b in itertools.combinations(piles, 2)]
+
+
 def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels: np.ndarray,
            extra: dict[str, Any]) -> dict[str, Any]:
     ox, oy = scene.origin
@@ -1297,9 +1309,7 @@ def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels:
                       "radius": p.radius, "tilt_deg": p.tilt_deg,
                       "tilt_azimuth_deg": p.tilt_bearing_deg % 360.0, "group": groups_of.get(i + 1, 1),
                       "seabed_z": float(scene.seabed.elevation(p.x, p.y))})
-    spacings = [{"a": a["id"], "b": b["id"],
-                 "distance": math.hypot(a["x"] - b["x"], a["y"] - b["y"])}
-                for a, b in itertools.combinations(piles, 2)]
+    spacings = truth_spacings(piles)
     reefs = [_reef_truth(r, scene.seabed, scene.origin) for r in scene.reefs]
     groups = []
     for g in sorted({r.group for r in scene.reefs}):
