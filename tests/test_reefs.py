@@ -239,3 +239,19 @@ def test_cli_reefs_end_to_end(tmp_path, reef_small, capsys):
     assert ring[0] == ring[-1] and len(ring) >= 4
     assert main(["reefs", str(src), "--min-height", "-1", "--out", str(tmp_path / "o2")]) == 2
     assert "--min-height: -1.0; expected a positive finite number" in capsys.readouterr().err
+
+
+def test_a_shifted_survey_gives_the_same_reefs_and_numbers(reef_small):
+    """Results and reef numbers do not depend on where the origin is (1 km and 500 km away)."""
+    from mbinspect.io import PointCloud
+
+    base = extract_reefs(reef_small.cloud, seed=0)
+    assert len(base.reefs) >= 40
+    for shift in (1000.0, 500_000.0):
+        moved = extract_reefs(PointCloud(reef_small.cloud.xyz + [shift, -shift, 0.0],
+                                         dict(reef_small.cloud.fields)), seed=0)
+        assert [r.id for r in moved.reefs] == [r.id for r in base.reefs]
+        assert [r.group for r in moved.reefs] == [r.group for r in base.reefs]
+        for a, b in zip(base.reefs, moved.reefs, strict=True):
+            assert np.hypot(b.x - shift - a.x, b.y + shift - a.y) < 1e-3
+            assert abs(b.area - a.area) < 1e-3 and abs(b.height - a.height) < 1e-3

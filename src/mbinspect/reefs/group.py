@@ -16,7 +16,8 @@ __all__ = ["group_reefs", "number_reefs"]
 
 
 def group_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dict[str, Any]]]:
-    """Reefs grouped: centres chained within ``link`` m; groups numbered in reading order.
+    """Reefs grouped: centres chained within ``link`` m; groups numbered in reading order
+    (rows of ``link`` m from the northernmost group southward, west to east within a row).
 
     Parameters
     ----------
@@ -36,7 +37,9 @@ def group_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dic
     xy = np.array([[r.x, r.y] for r in reefs])
     lab = components(xy, eps=link, min_points=1)
     centres = np.array([xy[lab == g].mean(axis=0) for g in range(lab.max() + 1)])
-    order = np.lexsort((centres[:, 0], -np.round(centres[:, 1] / max(link, 1e-9))))
+    # rows counted from the northernmost group, so that the order does not depend on the origin
+    rows = np.round((centres[:, 1].max() - centres[:, 1]) / max(link, 1e-9))
+    order = np.lexsort((centres[:, 0] - centres[:, 0].min(), rows))
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     gid = [int(rank[g]) + 1 for g in lab]
@@ -56,8 +59,8 @@ def group_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[int], list[dic
 
 
 def number_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[Reef], list[dict[str, Any]]]:
-    """Reefs in reading order (rows of 3 m from north to south, west to east within a
-    row) with ids from 1 and their groups (:func:`group_reefs`).
+    """Reefs in reading order (rows of 3 m from the northernmost reef southward, west to
+    east within a row) with ids from 1 and their groups (:func:`group_reefs`).
 
     Parameters
     ----------
@@ -79,7 +82,9 @@ def number_reefs(reefs: Sequence[Reef], link: float) -> tuple[list[Reef], list[d
     reefs : list of Reef
     groups : list of dict
     """
-    order = sorted(range(len(reefs)), key=lambda i: (-round(reefs[i].y / 3.0), reefs[i].x))
+    # rows of 3 m counted from the northernmost reef: the numbers do not depend on the origin
+    top = max((r.y for r in reefs), default=0.0)
+    order = sorted(range(len(reefs)), key=lambda i: (round((top - reefs[i].y) / 3.0), reefs[i].x))
     ordered = [reefs[i] for i in order]
     gid, groups = group_reefs(ordered, link)
     return [replace(r, id=i + 1, group=g) for i, (r, g) in enumerate(zip(ordered, gid, strict=True))], groups
