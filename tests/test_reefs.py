@@ -255,3 +255,24 @@ def test_a_shifted_survey_gives_the_same_reefs_and_numbers(reef_small):
         for a, b in zip(base.reefs, moved.reefs, strict=True):
             assert np.hypot(b.x - shift - a.x, b.y + shift - a.y) < 1e-3
             assert abs(b.area - a.area) < 1e-3 and abs(b.height - a.height) < 1e-3
+
+
+def test_a_filter_that_removes_most_soundings_says_so_and_what_to_give(capsys, tmp_path):
+    """A 1 m gridded export: the 0.5 m radius filter would remove every sounding. The
+    message names the options and the radius that keeps 99 %; following it works."""
+    from mbinspect.errors import DataError
+
+    rng = np.random.default_rng(0)
+    g = np.arange(0.0, 40.0, 1.0)
+    pts = np.column_stack([np.repeat(g, 40), np.tile(g, 40), -25.0 + rng.normal(0, 0.02, 1600)])
+    with pytest.raises(DataError, match=r"removed 100 % of the soundings \(`noise_radius` 0.5 m.*"
+                                        r"`noise_radius` 1.4\d keeps 99 %"):
+        extract_reefs(pts)
+    res = extract_reefs(pts, noise_radius=1.45)
+    assert len(res.reefs) == 0 and res.filters["radius"]["n_removed"] <= 0.01 * len(pts)
+    assert not any("radius filter" in w for w in res.warnings)
+    path = tmp_path / "grid.xyz"
+    np.savetxt(path, pts, fmt="%.3f")
+    assert main(["reefs", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "--noise-radius 1.4" in err and "keeps 99 %" in err

@@ -3,6 +3,8 @@ above the seabed, with their feet) cleaned by a statistical filter."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -10,7 +12,7 @@ from ..checks import fail, positive
 from ..filters import FilterReport, radius_outlier, statistical_outlier
 from .ground import Seabed
 
-__all__ = ["denoise", "reef_points", "clean_reef_points"]
+__all__ = ["radius_keeping", "denoise", "reef_points", "clean_reef_points"]
 
 
 def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
@@ -42,6 +44,47 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
     keep = radius_outlier(points, radius=radius, min_neighbors=min_neighbors)
     return keep, FilterReport("radius", len(keep), int((~keep).sum()),
                               {"radius": radius, "min_neighbors": min_neighbors})
+
+
+def radius_keeping(points: np.ndarray, min_neighbors: int, share: float = 0.99, *, sample: int = 50_000,
+                   seed: int = 0) -> float:
+    """The smallest radius filter ``r`` under which ``share`` of the soundings keep more than
+    ``min_neighbors`` neighbours (the ``share`` quantile of the distance to the
+    ``min_neighbors + 1``-th nearest other sounding, from a seeded sample).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    min_neighbors : int
+    share : float
+    sample : int
+    seed : int
+
+    Returns
+    -------
+    float
+        NaN for fewer than ``min_neighbors + 2`` soundings.
+
+    Examples
+    --------
+    >>> g = np.arange(0.0, 30.0, 1.0)
+    >>> grid = np.column_stack([np.repeat(g, 30), np.tile(g, 30), np.zeros(900)])
+    >>> round(radius_keeping(grid, 3, 0.8), 3)  # inside a 1 m grid the 4th neighbour is 1 m away
+    1.0
+    >>> round(radius_keeping(grid, 3), 3)  # on its edges, on the diagonal
+    1.414
+    """
+    from scipy.spatial import cKDTree
+
+    pts = np.asarray(points, float)
+    k = min_neighbors + 1
+    if len(pts) < k + 1:
+        return math.nan
+    local = pts - pts.mean(axis=0)
+    rng = np.random.default_rng(seed)
+    rows = rng.choice(len(pts), size=min(sample, len(pts)), replace=False)
+    d, _ = cKDTree(local).query(local[rows], k=k + 1)  # the first is the sounding itself
+    return float(np.quantile(d[:, k], share))
 
 
 def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,

@@ -12,7 +12,7 @@ from .. import __version__
 from ..errors import DataError
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
-from .detect import clean_reef_points, denoise, reef_points
+from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .ground import Seabed, fit_seabed
 from .group import number_reefs
@@ -25,6 +25,21 @@ from .split import split_reefs
 from .terrain import screen_terrain
 
 __all__ = ["extract_reefs", "single_reefs"]
+
+
+#: Share of the soundings the radius filter may remove before the run says so.
+FILTER_LOSS_WARNING = 0.05
+
+
+def _filter_loss(pts: np.ndarray, removed: int, opts: ReefOptions) -> str | None:
+    """A note when the radius filter removed more than :data:`FILTER_LOSS_WARNING` of the
+    soundings: how many, under which options, and the radius that keeps 99 % of them."""
+    if removed <= FILTER_LOSS_WARNING * len(pts):
+        return None
+    r99 = radius_keeping(pts, opts.noise_neighbors, seed=opts.seed)
+    return (f"the radius filter removed {100 * removed / len(pts):.0f} % of the soundings (`noise_radius` "
+            f"{opts.noise_radius:g} m, `noise_neighbors` {opts.noise_neighbors}): they lie farther apart "
+            f"than it expects; `noise_radius` {r99:.2f} keeps 99 % of them")
 
 
 def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = None, *,
@@ -75,16 +90,18 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     local = opts.method == "local"
     keep, rep = denoise(pts, radius=opts.noise_radius, min_neighbors=opts.noise_neighbors)
     filters: dict[str, Any] = {"radius": rep.to_dict()}
+    filter_note = _filter_loss(pts, rep.n_removed, opts)
     report(0.25)
     ground = screen_terrain(pts[keep], local=local, seabed=opts.seabed, exclude_rough=opts.exclude_rough,
                             max_slope_deg=opts.max_slope_deg, max_roughness=opts.max_roughness,
                             seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window)
-    warnings = list(ground.warnings)
+    warnings = ([filter_note] if filter_note else []) + list(ground.warnings)
     if ground.report is not None:
         filters["rough_terrain"] = ground.report
     kept = ground.points
     if len(kept) < 10:
-        raise DataError("fewer than 10 soundings left after filtering; nothing to extract")
+        raise DataError("fewer than 10 soundings left after filtering; nothing to extract"
+                        + (f": {filter_note}" if filter_note else ""))
     report(0.35)
     surf, seabed_info = fit_seabed(kept, mode=opts.seabed if local else "plane",
                                    threshold=opts.plane_threshold, confidence=opts.confidence,
