@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from mbinspect.io import write
 from mbinspect.piles import (
     Design,
     PileFit,
+    PileOptions,
     locate_piles,
     read_design,
     separate_piles,
@@ -379,3 +381,34 @@ def test_a_design_drawn_in_a_local_frame_is_matched_jacket_by_jacket(wharf):
         # the same fit from another frame, to a tenth of a millimetre (the solver's convergence)
         assert all(abs(qa["miss"] - qb["miss"]) < 1e-4 for qa, qb in zip(fa.residuals, fb.residuals,
                                                                           strict=True))
+
+
+def test_a_quay_wall_is_not_a_pile(capsys, tmp_path):
+    """The real Ostend strip ending on a 6 m quay wall: the wall's candidate (its top fitted
+    12 m below the seabed, a 0.31 m radius against the 0.75 m prior) is rejected, named."""
+    from pathlib import Path
+
+    from mbinspect.io import read
+
+    path = Path(__file__).parent / "data" / "ets_kmall_OS01_-6133896825737735245.kmall"
+    with pytest.raises(DataError, match=r"is not a pile \(top 1\d\.\d m below the seabed around it, "
+                                        r"radius 0\.\d\d m against the prior 0\.75 m\)"):
+        locate_piles(read(path), radius=0.75)
+    assert main(["piles", str(path), "--radius", "0.75", "--out", str(tmp_path / "p")]) == 2
+    assert "is not a pile" in capsys.readouterr().err
+
+
+def test_rejection_reasons_for_what_cannot_stand():
+    from mbinspect.piles.accept import rejection_reasons
+
+    opts = PileOptions(radius=0.75)
+    upright = PileFit(1, 0.0, 0.0, -16.0, 0.75, 0.3, 0.0, "intersection", 300, 900, 180.0, 0.01, 0.002,
+                      radius_fitted=0.76)
+    assert rejection_reasons(upright, 5.0, opts) == []
+    battered = replace(upright, tilt_deg=14.1)  # 1:4
+    assert rejection_reasons(battered, 5.0, opts) == []
+    noise = replace(upright, tilt_deg=28.7)
+    assert rejection_reasons(noise, 1.5, opts) == ["leans 28.7 deg, more than `max_tilt_deg` 15"]
+    assert rejection_reasons(replace(upright, radius_fitted=1.5), 5.0, opts) == [
+        "radius 1.50 m against the prior 0.75 m"]
+    assert rejection_reasons(upright, -0.2, opts) == ["top 0.2 m below the seabed around it"]

@@ -213,6 +213,10 @@ class PileResult:
         With ``method="both"``: the centre method's spacings and piles.
     segmentation : dict
         Per pile, how the top/side split went, and the backscatter threshold used.
+    frames : tuple of FrameFit
+        Per jacket, the design frame fitted to the measured centres.
+    rejected : tuple of dict
+        Candidates that cannot be standing piles, with the reasons (:mod:`.accept`).
     """
 
     piles: tuple[PileFit, ...]
@@ -227,6 +231,7 @@ class PileResult:
     other_piles: tuple[PileFit, ...] = ()
     segmentation: dict[str, Any] = field(default_factory=dict)
     frames: tuple[FrameFit, ...] = ()
+    rejected: tuple[dict[str, Any], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The result as JSON-ready dicts and lists (``piles.json``)."""
@@ -238,6 +243,7 @@ class PileResult:
             "parameters": to_jsonable(self.parameters),
             "segmentation": to_jsonable(self.segmentation),
             "frames": [f.to_dict() for f in self.frames],
+            "rejected": to_jsonable(list(self.rejected)),
             "warnings": list(self.warnings),
             "seabed": self.seabed.to_dict() if self.seabed is not None else None,
         }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -11,6 +12,7 @@ from .. import __version__
 from ..errors import DataError
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
+from .accept import rejected_record, rejection_reasons
 from .assess import assess_pile, other_method_piles
 from .design import Design, apply_design
 from .elevate import elevated_points, intensity_threshold
@@ -34,7 +36,9 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     Stages: the points above a robust local seabed (:func:`elevated_points`), separated
     into piles (:func:`separate_piles`), each split into top and side
     (:func:`segment_piles`), measured by the centre or intersection method until the
-    spacings settle (:func:`iterate`), judged (:func:`assess_pile`), matched to the design
+    spacings settle (:func:`iterate`), judged (:func:`assess_pile`), candidates that
+    cannot be standing piles set aside with their reasons (:func:`rejection_reasons`),
+    matched to the design
     (:func:`apply_design`), and every spacing with its 1-sigma (:func:`spacings`).
 
     Parameters
@@ -94,6 +98,15 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
         intensity_threshold=thr, ping=None if ping is None else ping[eidx])
     fits, iterations = iterate(segs, side_n, opts, report)
     piles = tuple(assess_pile(pid, fits[pid], opts) for pid in sorted(fits))
+    piles, kept, rejected = _standing(piles, seabed, opts)
+    if not piles:
+        raise DataError("no pile found: " + "; ".join(
+            f"the candidate near ({r['x']:.1f}, {r['y']:.1f}) is not a pile ({', '.join(r['reasons'])})"
+            for r in rejected))
+    warnings += [f"not a pile near ({r['x']:.1f}, {r['y']:.1f}): {', '.join(r['reasons'])}" for r in rejected]
+    fits = {new: fits[old] for new, old in kept.items()}
+    segs = {new: segs[old] for new, old in kept.items() if old in segs}
+    seg_info = {new: seg_info[old] for new, old in kept.items() if old in seg_info}
     piles, remap, warn = apply_design(piles, design)
     piles = group_piles(piles, design, mode=opts.groups)
     covs = {remap[k]: fits[k].cov for k in fits}
@@ -116,4 +129,22 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
                       other_pairs, others,
                       {"intensity_threshold": thr,
                        "piles": {str(remap[k]): v for k, v in seg_info.items()}},
-                      frames)
+                      frames, tuple(rejected))
+
+
+def _standing(piles: tuple[PileFit, ...], seabed: Any, opts: PileOptions
+              ) -> tuple[tuple[PileFit, ...], dict[int, int], list[dict[str, Any]]]:
+    """The candidates that can be standing piles, renumbered from 1 in their order; the map
+    new id -> old id; the others with their reasons."""
+    kept: list[PileFit] = []
+    old_of: dict[int, int] = {}
+    rejected = []
+    for p in piles:
+        top = float(seabed.height_above(np.array([[p.x, p.y, p.z]]))[0])
+        reasons = rejection_reasons(p, top, opts)
+        if reasons:
+            rejected.append(rejected_record(p, top, reasons))
+            continue
+        old_of[len(kept) + 1] = p.id
+        kept.append(replace(p, id=len(kept) + 1))
+    return tuple(kept), old_of, rejected

@@ -1,0 +1,57 @@
+"""Stage 6b: only piles are piles. A measured candidate that cannot be a standing pile
+(its top not above the seabed, leaning past ``max_tilt_deg``, or a radius far from the
+prior) is taken out of the answer and listed with the reasons."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .options import PileOptions
+from .results import PileFit
+
+__all__ = ["RADIUS_RATIO", "rejected_record", "rejection_reasons"]
+
+#: A fitted radius outside ``prior / RADIUS_RATIO`` to ``prior * RADIUS_RATIO`` is not this pile.
+RADIUS_RATIO = 1.6
+
+
+def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) -> list[str]:
+    """Why ``pile`` cannot be a standing pile (empty when it can).
+
+    Parameters
+    ----------
+    pile : PileFit
+        A measured candidate.
+    top_height : float
+        Height (m) of its top above the seabed around it.
+    options : PileOptions
+        ``radius`` and ``max_tilt_deg``.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> p = PileFit(1, 0.0, 0.0, -20.4, 0.75, 3.8, 0.0, "intersection", 9, 721, 35.0, 0.01, 0.03,
+    ...             radius_fitted=0.31)
+    >>> rejection_reasons(p, -11.9, PileOptions(radius=0.75))[0]
+    'top 11.9 m below the seabed around it'
+    """
+    reasons = []
+    if not top_height > 0:
+        reasons.append(f"top {-top_height:.1f} m below the seabed around it")
+    if pile.tilt_deg is not None and pile.tilt_deg > options.max_tilt_deg:
+        reasons.append(f"leans {pile.tilt_deg:.1f} deg, more than `max_tilt_deg` {options.max_tilt_deg:g}")
+    r = pile.radius_fitted
+    if r is not None and not (options.radius / RADIUS_RATIO <= r <= options.radius * RADIUS_RATIO):
+        reasons.append(f"radius {r:.2f} m against the prior {options.radius:g} m")
+    return reasons
+
+
+def rejected_record(pile: PileFit, top_height: float, reasons: list[str]) -> dict[str, Any]:
+    """What a result lists of a rejected candidate (JSON-ready)."""
+    return {"x": pile.x, "y": pile.y, "z": pile.z, "top_height": float(np.round(top_height, 3)),
+            "tilt_deg": pile.tilt_deg, "radius_fitted": pile.radius_fitted, "reasons": reasons}
