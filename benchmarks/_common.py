@@ -3,8 +3,28 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import Any
+
+#: The real survey files and their independent decodes (``../shared/real``).
+REAL = Path(__file__).resolve().parents[2] / "shared" / "real"
+
+
+def real_clouds() -> Iterator[tuple[str, Any]]:
+    """Every real file mbinspect reads, as (file name, cloud of its valid soundings in UTM);
+    the files a reader refuses are left out."""
+    from mbinspect.errors import MBInspectError
+    from mbinspect.io import format_from_path
+    from mbinspect.sonar import read_sonar, to_cloud
+
+    for path in sorted((REAL / "files").iterdir()):
+        if path.suffix == ".md":
+            continue
+        try:
+            yield path.name, to_cloud(read_sonar(path, format_from_path(path)))
+        except MBInspectError:
+            continue
 
 
 def best_of(fn: Callable[[], Any], repeat: int = 3) -> tuple[float, Any]:

@@ -25,14 +25,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table  # noqa: E402
-from mbinspect.errors import MBInspectError  # noqa: E402
-from mbinspect.io import PointCloud, format_from_path  # noqa: E402
+from _common import real_clouds, table  # noqa: E402
+from mbinspect.io import PointCloud  # noqa: E402
 from mbinspect.noise import ANGLE_BINS, noise_profile  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
-from mbinspect.sonar import read_sonar, to_cloud  # noqa: E402
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "real"
 #: the simulator's rows: preset and options
 SIMULATED = [("jacket", {}), ("reef-field", {}), ("reef-field", {"tail_dof": 2.5, "speckle_db": 5})]
 
@@ -47,15 +44,9 @@ def _r(v: float | None) -> str:
 
 def _clouds(simulator: bool) -> Iterator[tuple[str, PointCloud]]:
     """The readable real files (valid soundings), then the simulator's seabed soundings."""
-    for path in sorted((REAL / "files").iterdir()):
-        if path.suffix == ".md":
-            continue
-        try:
-            cloud = to_cloud(read_sonar(path, format_from_path(path)))
-        except MBInspectError:
-            continue
+    for name, cloud in real_clouds():
         if len(cloud.xyz) >= 200:
-            yield path.name, cloud
+            yield name, cloud
     if simulator:
         for preset, kw in SIMULATED:
             sim = simulate(preset, seed=0, **kw)

@@ -16,36 +16,26 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table  # noqa: E402
+from _common import real_clouds, table  # noqa: E402
 from mbinspect.errors import MBInspectError  # noqa: E402
-from mbinspect.io import format_from_path  # noqa: E402
 from mbinspect.reefs import extract_reefs  # noqa: E402
-from mbinspect.sonar import read_sonar, to_cloud  # noqa: E402
-
-REAL = Path(__file__).resolve().parents[2] / "shared" / "real"
 
 
 def main() -> None:
     rows = []
-    for path in sorted((REAL / "files").iterdir()):
-        if path.suffix == ".md":
-            continue
-        try:
-            cloud = to_cloud(read_sonar(path, format_from_path(path)))
-        except MBInspectError:
-            continue
+    for name, cloud in real_clouds():
         depth = f"{-np.median(cloud.xyz[:, 2]):.0f}"
         t = time.perf_counter()
         try:
             res = extract_reefs(cloud)
         except MBInspectError as exc:
-            rows.append([path.name[:30], depth, f"{len(cloud):,}", "-", "-", "-",
+            rows.append([name[:30], depth, f"{len(cloud):,}", "-", "-", "-",
                          "stopped: " + str(exc)[:70], f"{time.perf_counter() - t:.1f}"])
             continue
         radius = res.filters["radius"]
         removed = 100 * radius["n_removed"] / max(1, radius["n_in"])
         note = res.warnings[0][:70] if res.warnings else ""
-        rows.append([path.name[:30], depth, f"{len(cloud):,}", f"{removed:.1f}", f"{len(res.reefs)}",
+        rows.append([name[:30], depth, f"{len(cloud):,}", f"{removed:.1f}", f"{len(res.reefs)}",
                      f"{len(res.others)}", note, f"{time.perf_counter() - t:.1f}"])
     print(table(["file", "depth m", "soundings", "removed by filter %", "reefs", "others",
                  "warning or stop", "s"], rows))

@@ -22,14 +22,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import table  # noqa: E402
+from _common import real_clouds, table  # noqa: E402
 from mbinspect.errors import MBInspectError  # noqa: E402
 from mbinspect.inject import InjectedPile, inject_piles  # noqa: E402
-from mbinspect.io import PointCloud, format_from_path  # noqa: E402
+from mbinspect.io import PointCloud  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
-from mbinspect.sonar import read_sonar, to_cloud  # noqa: E402
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "real"
 SIDE, RADIUS, HEIGHT = 6.0, 0.5, 2.0  # side: at most
 
 
@@ -44,16 +42,10 @@ def _jacket(cx: float, cy: float, side: float, rng: np.random.Generator) -> list
 
 def _files() -> list[tuple[str, PointCloud]]:
     out = []
-    for path in sorted((REAL / "files").iterdir()):
-        if path.suffix == ".md":
-            continue
-        try:
-            cloud = to_cloud(read_sonar(path, format_from_path(path)))
-        except MBInspectError:
-            continue
+    for name, cloud in real_clouds():
         lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
         if (hi - lo).min() >= 8.0 and -np.median(cloud.xyz[:, 2]) < 60:
-            out.append((path.name, cloud))
+            out.append((name, cloud))
     return out
 
 
