@@ -108,3 +108,24 @@ def test_simulator_heavy_tails_option():
     assert heavy.sigma == pytest.approx(normal.sigma, rel=0.15)
     with pytest.raises(ParameterError, match="tail_dof"):
         simulate("reef-field", tail_dof=1.5)
+
+
+def test_info_noise(capsys):
+    """``info --noise`` adds the profile to the text and to the JSON (the same numbers)."""
+    import json
+
+    from mbinspect.cli import main
+
+    path = str(DATA / "pdal_mbf_em300raw.mb56")
+    assert main(["info", path, "--noise", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    cloud = to_cloud(read_sonar(DATA / "pdal_mbf_em300raw.mb56", "all"))
+    direct = noise_profile(cloud.xyz, cloud.fields).to_dict()
+    assert d["noise"]["sigma"] == pytest.approx(direct["sigma"])
+    assert d["noise"]["p99_ratio"] == pytest.approx(direct["p99_ratio"])
+    by_angle = [b["sigma"] for b in direct["by_angle"]]
+    assert [b["sigma"] for b in d["noise"]["by_angle"]] == pytest.approx(by_angle)
+    assert main(["info", path, "--noise"]) == 0
+    out = capsys.readouterr().out
+    assert f"noise       sigma {100 * d['noise']['sigma']:.1f} cm (robust)" in out
+    assert out.count(" deg  sigma ") == len(d["noise"]["by_angle"]) >= 4

@@ -167,14 +167,22 @@ def _provenance(result: Any, args: argparse.Namespace, argv: Sequence[str], **fi
 def _cmd_info(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     from .checks import positive
     from .io import describe
+    from .outputs import to_jsonable
 
     if args.cell is not None:
         positive("cell", args.cell)
     _check_input(args)
-    summary = describe(_read_input(args, rep), cell=args.cell)
+    cloud = _read_input(args, rep)
+    summary = describe(cloud, cell=args.cell)
     d = summary.to_dict()
+    noise = None
+    if args.noise:
+        from .noise import noise_profile
+
+        noise = noise_profile(cloud.xyz, cloud.fields)
+        d["noise"] = noise.to_dict()
     if args.json:
-        print(json.dumps(d, indent=2))
+        print(json.dumps(to_jsonable(d), indent=2))
         return 0
     lo, hi = summary.bounds_min, summary.bounds_max
     lines = [
@@ -199,8 +207,28 @@ def _cmd_info(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> i
         if "time_span" in sonar:
             lines.append(f"time        {sonar['time_span'][0]} .. {sonar['time_span'][1]} (UTC)")
         lines.append(f"z level     {sonar.get('level')}")
+    if noise is not None:
+        lines += _noise_lines(noise)
     print("\n".join(lines))
     return 0
+
+
+def _noise_lines(noise: Any) -> list[str]:
+    """The seabed noise of ``info --noise``, as text lines."""
+    def opt(v: float | None) -> str:
+        return "-" if v is None else f"{v:.2f}"
+
+    lines = [f"noise       sigma {100 * noise.sigma:.1f} cm (robust), p99/sigma {noise.p99_ratio:.1f} "
+             "(2.6 normal), against the seabed of neighbouring pings",
+             f"            beam correlation {opt(noise.beam_correlation)}, ping correlation "
+             f"{opt(noise.ping_correlation)}, share common to a ping {opt(noise.ping_share)}"]
+    for b in noise.by_angle:
+        lo, hi = b["angles"]
+        bs = (f", backscatter {b['intensity_median']:.1f} +/- {b['intensity_spread']:.1f} dB"
+              if "intensity_median" in b else "")
+        lines.append(f"  {lo:>2.0f}-{hi:<2.0f} deg  sigma {100 * b['sigma']:.1f} cm, p99/sigma "
+                     f"{opt(b['p99_ratio'])}, median {100 * b['bias']:+.1f} cm{bs} ({b['soundings']:,})")
+    return lines
 
 
 # ----------------------------------------------------------------------------- simulate
@@ -487,6 +515,8 @@ def build_parser() -> argparse.ArgumentParser:
              "example:\n  mbinspect info soundings.laz --json")
     _add_input(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.add_argument("--noise", action="store_true",
+                   help="also the seabed noise: sigma and tails by beam angle, correlations, backscatter")
     p.add_argument("--cell", type=typed_parser(float, "cell"), default=None, metavar="M",
                    help="grid cell (m) for the covered area and density (default: about three "
                         "sounding spacings)")
