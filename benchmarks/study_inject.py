@@ -24,7 +24,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import real_clouds, table  # noqa: E402
 from mbinspect.errors import MBInspectError  # noqa: E402
-from mbinspect.inject import InjectedPile, inject_piles  # noqa: E402
+from mbinspect.inject import InjectedPile, inject  # noqa: E402
 from mbinspect.io import PointCloud  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
 
@@ -63,7 +63,7 @@ def main() -> None:
         for k in range(args.placements):
             piles = _jacket(cx, cy, side, np.random.default_rng(k))
             try:
-                inj = inject_piles(cloud.xyz, cloud.fields, piles)
+                inj = inject(cloud.xyz, cloud.fields, piles=piles)
             except MBInspectError:  # a pile over a hole in the coverage
                 unplaced += 1
                 continue

@@ -11,14 +11,14 @@ import pytest
 from mbinspect.designs import BUILTIN_DESIGNS, DesignBox, ReefDesign, fit_design, parse_designs, read_design
 from mbinspect.errors import InputError, ParameterError
 from mbinspect.geometry import polygon_area
-from mbinspect.simulate import Reef, Seabed, _reef_truth, reef_boxes
+from mbinspect.simulate import Reef, Seabed, reef_boxes, reef_truth
 
 
 @pytest.mark.parametrize("name", sorted(BUILTIN_DESIGNS))
 def test_area_and_outline_match_the_simulators_truth(name):
     d = BUILTIN_DESIGNS[name]
     reef = Reef(1, name, 0.0, 0.0, 30.0, reef_boxes(name, 0.0, 0.0, 30.0, -10.0))
-    truth = _reef_truth(reef, Seabed(z0=-10.0, roughness=0.0), (0.0, 0.0), cell=0.01)
+    truth = reef_truth(reef, Seabed(z0=-10.0, roughness=0.0), (0.0, 0.0), cell=0.01)
     assert d.area == pytest.approx(truth["area"], rel=0.01)
     assert np.hypot(*(d.centroid - [truth["x"], truth["y"]])) < 0.01
     if name.startswith("cross"):  # the outline is the outer boundary: the hollow and triangle enclose a hole

@@ -10,7 +10,7 @@ import pytest
 
 from mbinspect.cli import main
 from mbinspect.errors import InputError
-from mbinspect.inject import InjectedPile, inject_piles, ping_origins
+from mbinspect.inject import InjectedPile, InjectedReef, inject, ping_origins, read_reef_file
 from mbinspect.io import read
 from mbinspect.noise import seabed_residuals
 
@@ -47,7 +47,7 @@ def _piles(cloud, height=2.0):
 def test_injected_piles_carry_the_surveys_noise_and_shadows():
     cloud = read(SURVEY)
     piles = _piles(cloud)
-    inj = inject_piles(cloud.xyz, cloud.fields, piles)
+    inj = inject(cloud.xyz, cloud.fields, piles=piles)
     resid = seabed_residuals(cloud.xyz, ping=cloud.fields["ping"])
     moved = inj.labels > 0
     assert not np.array_equal(cloud.xyz, inj.xyz) and np.array_equal(cloud.xyz[~moved], inj.xyz[~moved])
@@ -76,13 +76,13 @@ def test_injected_piles_carry_the_surveys_noise_and_shadows():
 def test_inject_refuses_what_it_cannot_do():
     cloud = read(SURVEY)
     with pytest.raises(InputError, match="no ping or beam_angle"):
-        inject_piles(cloud.xyz, {}, _piles(cloud))
+        inject(cloud.xyz, {}, piles=_piles(cloud))
     cx, cy = cloud.xyz[:, :2].mean(axis=0)
     with pytest.raises(InputError, match="overlap"):
-        inject_piles(cloud.xyz, cloud.fields, [InjectedPile(1, cx, cy, 0.5, height=1),
+        inject(cloud.xyz, cloud.fields, piles=[InjectedPile(1, cx, cy, 0.5, height=1),
                                                InjectedPile(2, cx + 0.8, cy, 0.5, height=1)])
     with pytest.raises(InputError, match="expected a pile inside the survey"):
-        inject_piles(cloud.xyz, cloud.fields, [InjectedPile(1, cx + 500, cy, 0.5, height=1)])
+        inject(cloud.xyz, cloud.fields, piles=[InjectedPile(1, cx + 500, cy, 0.5, height=1)])
 
 
 def test_inject_command(tmp_path, capsys):
@@ -106,3 +106,54 @@ def test_inject_command(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "bad.csv: line 2, column radius: 'abc'; expected a number" in err
     assert not (tmp_path / "b").exists()
+
+
+def _reefs(cloud):
+    cx, cy = cloud.xyz[:, :2].mean(axis=0)
+    return [InjectedReef(1, cx - 3.0, cy, "cross1", bearing_deg=20, burial=0.3),
+            InjectedReef(2, cx + 2.5, cy, "hollow", bearing_deg=50, scale=0.8)]
+
+
+def test_injected_reefs_are_found_with_their_exposed_height():
+    """Reefs put into the real EM3000 line carry its noise; the reef method finds both, at
+    their exposed height (the cross sunk 0.3 m), and nothing else."""
+    from mbinspect.io import PointCloud
+    from mbinspect.reefs import extract_reefs
+
+    cloud = read(SURVEY)
+    inj = inject(cloud.xyz, cloud.fields, reefs=_reefs(cloud))
+    truth = inj.truth["reefs"]
+    assert [r["kind"] for r in truth] == ["cross1", "hollow"]
+    assert truth[0]["height"] == pytest.approx(1.2 - 0.3)
+    assert truth[1]["height"] == pytest.approx(1.5 * 0.8 - 0.1)
+    assert min(inj.truth["counts"]["per_reef"].values()) > 300
+    moved = inj.labels > 0
+    assert np.array_equal(cloud.xyz[~moved], inj.xyz[~moved]) and (inj.labels[moved] == 2).all()
+    ref = (np.array([[r["x"], r["y"]] for r in truth]), (1, 2))
+    res = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields), crs=cloud.crs), reference=ref,
+                        design="cross1,hollow")
+    ev = res.evaluation
+    assert (ev.tp, ev.fp, ev.fn) == (2, 0, 0) and not res.others
+    for i, j, dist in ev.matches:
+        assert dist < 0.15
+        assert res.reefs[i].height == pytest.approx(truth[j]["height"], abs=0.05)
+        assert res.reefs[i].design == truth[j]["kind"]
+
+
+def test_inject_reefs_command(tmp_path, capsys):
+    cloud = read(SURVEY)
+    rows = ["id,x,y,kind,bearing_deg,scale,burial"] + [
+        f"{r.id},{r.x:.3f},{r.y:.3f},{r.kind},{r.bearing_deg},{r.scale},{r.burial}" for r in _reefs(cloud)]
+    (tmp_path / "reefs.csv").write_text("\n".join(rows) + "\n")
+    out = tmp_path / "inj"
+    assert main(["inject", str(SURVEY), "--reefs", str(tmp_path / "reefs.csv"), "--out", str(out)]) == 0
+    truth = json.loads((out / "truth.json").read_text())
+    assert [r["id"] for r in truth["reefs"]] == [1, 2] and not truth["piles"]
+    assert (out / "reference.csv").read_text().startswith("x,y,id") and not (out / "design.csv").exists()
+    assert read_reef_file(tmp_path / "reefs.csv")[1].kind == "hollow"
+    (tmp_path / "bad.csv").write_text("id,x,y,kind\n1,2,3,pyramid\n")
+    bad = ["inject", str(SURVEY), "--reefs", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "b")]
+    assert main(bad) == 2
+    assert "bad.csv: line 2, column kind: 'pyramid'; expected one of cross1" in capsys.readouterr().err
+    assert main(["inject", str(SURVEY), "--out", str(tmp_path / "c")]) == 2
+    assert "give --piles or --reefs" in capsys.readouterr().err

@@ -129,3 +129,43 @@ def test_info_noise(capsys):
     out = capsys.readouterr().out
     assert f"noise       sigma {100 * d['noise']['sigma']:.1f} cm (robust)" in out
     assert out.count(" deg  sigma ") == len(d["noise"]["by_angle"]) >= 4
+
+
+def _strip_offsets(sim) -> np.ndarray:
+    """Median height difference of neighbouring lines over the 1 m cells both see (seabed only)."""
+    xyz, line = sim.cloud.xyz, sim.cloud.fields["line"]
+    seabed = sim.labels == 0
+    cells = {}
+    for k in np.unique(line):
+        m = seabed & (line == k)
+        key = np.floor(xyz[m, :2]).astype(np.int64)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        z = np.bincount(inv.ravel(), xyz[m, 2]) / np.bincount(inv.ravel())
+        cells[int(k)] = dict(zip(map(tuple, uniq), z, strict=True))
+    out = []
+    for a, b in zip(sorted(cells)[:-1], sorted(cells)[1:], strict=True):
+        both = cells[a].keys() & cells[b].keys()
+        out.append(np.median([cells[a][c] - cells[b][c] for c in both]))
+    return np.abs(np.array(out))
+
+
+def test_named_sonars_and_strip_offsets():
+    """The shallow sonar (the default) has the real files' growth with angle and tails; its
+    lines disagree in height as real strips do, the classic sonar's do not."""
+    from mbinspect.simulate import simulate
+
+    sim = simulate("reef-field", seed=0, per_group=4)
+    assert sim.truth["sonar"]["name"] == "shallow"
+    keep = (sim.labels == 0) & (sim.cloud.fields["line"] == 1)
+    prof = noise_profile(sim.cloud.xyz[keep], {k: v[keep] for k, v in sim.cloud.fields.items()})
+    sig = [b["sigma"] for b in prof.by_angle]
+    # real shallow files (benchmarks/real_noise.py): 3.1 cm at 0-20 deg, 4.6 at 55-65, p99/sigma 3.8
+    assert 0.024 < sig[0] < 0.040 and 0.036 < sig[-1] < 0.060 and sig[-1] > 1.2 * sig[0]
+    assert 3.82 / 1.3 < prof.p99_ratio < 3.82 * 1.3
+    quiet = {"per_group": 4, "roughness": 0.0, "range_sigma": 0.0, "range_sigma_rel": 0.0,
+             "angle_sigma_deg": 0.0}
+    flat = _strip_offsets(simulate("reef-field", seed=0, sonar="classic", **quiet))
+    shifted = _strip_offsets(simulate("reef-field", seed=0, sonar="classic", line_offset_sigma=0.1, **quiet))
+    assert flat.max() < 0.005 and shifted.max() > 0.05
+    with pytest.raises(ParameterError, match="sonar: 'sidescan'"):
+        simulate("jacket", sonar="sidescan")

@@ -72,8 +72,9 @@ def test_designs_bring_every_footprint_within_ten_percent(reef_small):
 
 def test_hollow_reefs_broken_between_pings_are_whole_again_with_their_design():
     # thin walls square to the track fall between 0.55 m pings: free-form parts are halves
+    # (on this scene with the classic sonar; with the shallow one its noise happens to join them)
     sim = simulate("reef-field", seed=1, groups="hollow", per_group=16, close_pairs=0, boulders=0,
-                   debris=0)
+                   debris=0, sonar="classic")
     free = extract_reefs(sim.cloud, reference=_reference(sim)).evaluation
     res = extract_reefs(sim.cloud, reference=_reference(sim), design="hollow")
     ev = res.evaluation
@@ -119,7 +120,7 @@ def test_reef_points_keep_feet_and_leave_the_seabed(reef_small):
     assert mask[seabed].mean() < 0.002
     # the field's 0.3 deg slope over 150 m departs from one plane by more than 8 cm
     assert info["method"] == "grid" and info["plane"]["deviation_p99"] > 0.08
-    assert info["residual_rms"] < 0.05
+    assert info["residual_rms"] < 0.06  # the shallow sonar's noise: 3-5 cm by beam angle
 
 
 def test_sand_waves_use_the_local_surface_and_rough_shore_is_excluded():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mbinspect.errors import ParameterError
-from mbinspect.simulate import LABELS, Box, Reef, Seabed, _reef_truth, reef_boxes, simulate
+from mbinspect.simulate import LABELS, Box, Reef, Seabed, reef_boxes, reef_truth, simulate
 
 
 def _pile_frame(sim, pile):
@@ -116,13 +116,13 @@ def test_reef_truth_measures_known_shapes():
              ("hollow", 3.0 * 3.0 - 2.4 * 2.4, 3.0))
     for kind, area, length in cases:
         reef = Reef(1, kind, 0.0, 0.0, 30.0, reef_boxes(kind, 0.0, 0.0, 30.0, -17.1))
-        t = _reef_truth(reef, flat, (0.0, 0.0))
+        t = reef_truth(reef, flat, (0.0, 0.0))
         assert t["area"] == pytest.approx(area, rel=0.01)
         assert (t["x"], t["y"]) == pytest.approx((0.0, 0.0), abs=0.01)
         assert t["height"] == pytest.approx({"cross1": 1.1, "hollow": 1.4}[kind])
         assert t["length"] == pytest.approx(length, abs=0.01)
     box = Box(0, 0, -17.0, 2.0, 1.0, 1.0, 0.0)
-    t = _reef_truth(Reef(2, "box", 0, 0, 0, (box,)), flat, (0.0, 0.0))
+    t = reef_truth(Reef(2, "box", 0, 0, 0, (box,)), flat, (0.0, 0.0))
     assert t["volume"] == pytest.approx(2.0, rel=0.01)
     assert min(t["orientation_deg"], 180 - t["orientation_deg"]) == pytest.approx(0, abs=0.01)
 

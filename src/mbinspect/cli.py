@@ -270,7 +270,7 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
 
     from .io import write
     from .outputs import output_dir, write_json, write_table
-    from .simulate import PRESETS, option_fields, simulate
+    from .simulate import DEFAULT_SONAR, default_options, option_fields, simulate
 
     names = {f.name for f in option_fields(args.preset)}
     given = {k[4:]: v for k, v in vars(args).items() if k.startswith("opt_") and v is not None}
@@ -279,8 +279,7 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
         raise ParameterError(f"{foreign[0]}: not an option of the {args.preset} preset; expected one "
                              f"of {', '.join(sorted(names))}", option=foreign[0])
     if args.show_options:
-        opt_cls, sonar = PRESETS[args.preset]
-        values = {**dataclasses.asdict(opt_cls()), **dataclasses.asdict(sonar)}
+        values = default_options(args.preset, given.get("sonar", DEFAULT_SONAR))
         for f in option_fields(args.preset):
             print(f"--{f.name.replace('_', '-'):24s} {values[f.name]}")
         return 0
@@ -314,35 +313,47 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
 def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     import numpy as np
 
-    from .inject import inject_piles, read_pile_file
+    from .inject import inject, read_pile_file, read_reef_file
     from .io import PointCloud, write
     from .outputs import output_dir, write_json, write_table
 
     _check_input(args)
-    piles = read_pile_file(args.piles)
+    if not args.piles and not args.reefs:
+        raise ParameterError("nothing to inject; give `piles` or `reefs` (or both)", option="piles")
+    piles = read_pile_file(args.piles) if args.piles else []
+    reefs = read_reef_file(args.reefs) if args.reefs else []
     out = Path(args.out or "inject-out")
-    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, args.piles]) as tmp:
+    given = [f for f in (args.piles, args.reefs) if f]
+    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, *given]) as tmp:
         cloud = _read_input(args, rep)
         t = time.perf_counter()
-        inj = inject_piles(cloud.xyz, cloud.fields, piles)
-        rep.debug(f"injected {len(piles)} piles in {time.perf_counter() - t:.2f} s")
+        inj = inject(cloud.xyz, cloud.fields, piles=piles, reefs=reefs)
+        rep.debug(f"injected {len(piles)} piles and {len(reefs)} reefs in {time.perf_counter() - t:.2f} s")
         injected = PointCloud(inj.xyz, dict(cloud.fields), source=cloud.source, crs=cloud.crs,
                               meta=dict(cloud.meta))
         write(injected, tmp / "soundings.npz")
         truth = {**inj.to_dict(), "survey": _file_record(args.input), "command_line": ["mbinspect", *argv]}
         write_json(truth, tmp / "truth.json")
         np.savez_compressed(tmp / "labels.npz", label=inj.labels, ident=inj.ident)
-        write_table(inj.truth["design"], tmp / "design.csv", ["group", "id", "x", "y"])
+        if piles:
+            write_table(inj.truth["design"], tmp / "design.csv", ["group", "id", "x", "y"])
+        if reefs:
+            write_table([{"x": r["x"], "y": r["y"], "id": r["id"]} for r in inj.truth["reefs"]],
+                        tmp / "reference.csv", ["x", "y", "id"])
     counts = inj.truth["counts"]
-    per = ", ".join(f"pile {k}: {v:,}" for k, v in counts["per_pile"].items())
-    rep.info(f"{len(piles)} piles injected into {len(cloud):,} soundings ({per}); written to "
-             f"{out}/soundings.npz with truth.json and design.csv")
+    hits = [f"pile {k}: {v:,}" for k, v in counts["per_pile"].items()]
+    hits += [f"reef {k}: {v:,}" for k, v in counts["per_reef"].items()]
+    written = " and ".join(n for n, want in (("design.csv", piles), ("reference.csv", reefs)) if want)
+    what = " and ".join(f"{len(v)} {k}" for k, v in (("piles", piles), ("reefs", reefs)) if v)
+    rep.info(f"{what} injected into {len(cloud):,} soundings "
+             f"({', '.join(hits)}); written to {out}/soundings.npz with truth.json and {written}")
     if counts["without_ping_geometry"]:
         print(f"mbinspect: warning: {counts['without_ping_geometry']:,} soundings of pings too short to "
               "place their transducer were left as they were", file=sys.stderr)
-    for k, v in counts["per_pile"].items():
-        if v == 0:
-            print(f"mbinspect: warning: pile {k}: no beam of the survey reaches it", file=sys.stderr)
+    for kind in ("pile", "reef"):
+        for k, v in counts[f"per_{kind}"].items():
+            if v == 0:
+                print(f"mbinspect: warning: {kind} {k}: no beam of the survey reaches it", file=sys.stderr)
     return 0
 
 
@@ -543,18 +554,24 @@ def build_parser() -> argparse.ArgumentParser:
     _add_simulate_options(p)
     p.set_defaults(func=_cmd_simulate)
 
-    p = _sub(sub, "inject", "put known piles into a real survey (its own noise and shadows)",
-             "Put piles of known position into a real survey: every sounding whose beam meets a pile "
-             "is moved to the hit point and then along its beam by its own seabed residual, so the "
-             "piles carry the survey's real noise and cast its real shadows. Needs the ping and "
+    p = _sub(sub, "inject", "put known piles and reefs into a real survey (its own noise and shadows)",
+             "Put piles and reefs of known position into a real survey: every sounding whose beam meets "
+             "an object is moved to the hit point and then along its beam by its own seabed residual, so "
+             "the objects carry the survey's real noise and cast its real shadows. Needs the ping and "
              "beam angle of each sounding (GSF, KMALL, .all, or an .npz that keeps them). Writes "
-             "soundings.npz, truth.json (as simulate writes it), labels.npz and design.csv.",
+             "soundings.npz, truth.json (as simulate writes it), labels.npz, and design.csv (piles) "
+             "or reference.csv (reefs).",
              "example:\n  mbinspect inject line.all --piles piles.csv --out injected\n"
-             "  mbinspect piles injected/soundings.npz --radius 0.5 --design injected/design.csv\n\n"
+             "  mbinspect piles injected/soundings.npz --radius 0.5 --design injected/design.csv\n"
+             "  mbinspect inject line.all --reefs reefs.csv --out reefs-in\n"
+             "  mbinspect reefs reefs-in/soundings.npz --reference reefs-in/reference.csv\n\n"
              "piles.csv: id,x,y,radius and top (elevation, m) or height (above the seabed, m);\n"
-             "optional tilt_deg, tilt_azimuth_deg, group")
+             "optional tilt_deg, tilt_azimuth_deg, group\n"
+             "reefs.csv: id,x,y,kind (cross2, cross1, hollow, triangle); optional bearing_deg,\n"
+             "scale (as built / design), burial (m sunk, default 0.1), group")
     _add_input(p)
-    p.add_argument("--piles", metavar="CSV", required=True, help="the piles to inject (see below)")
+    p.add_argument("--piles", metavar="CSV", help="the piles to inject (see below)")
+    p.add_argument("--reefs", metavar="CSV", help="the reefs to inject (see below)")
     p.add_argument("--out", metavar="DIR", help="output folder (default inject-out)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
     p.set_defaults(func=_cmd_inject)

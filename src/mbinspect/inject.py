@@ -1,11 +1,13 @@
-"""Known piles put into a real survey, carrying the survey's own noise and shadows.
+"""Known piles and reefs put into a real survey, carrying the survey's own noise and shadows.
 
 Each sounding is a ray from its ping's transducer. A sounding whose ray meets an injected
-pile before its own seabed point is moved to the hit point, then along its beam by its own
+pile or reef before its own seabed point is moved to the hit point, then along its beam by its own
 seabed residual (the survey's real noise for that beam: :func:`mbinspect.noise.seabed_residuals`,
 turned from a vertical offset into a range offset), so the pile carries the sonar's real
 errors and the seabed behind it is shadowed as the real geometry shadows it. Soundings
-whose ray misses every pile are left exactly as they were.
+whose ray misses every object are left exactly as they were. Piles and reefs are the
+simulator's own scene types, so their truth has the form :func:`mbinspect.simulate.simulate`
+writes.
 
 The transducer of each ping is estimated from the ping's own soundings: across a ping the
 plan offset from nadir grows as ``h tan(angle)`` (``h`` the height above the seabed), so a
@@ -26,11 +28,13 @@ from typing import Any
 
 import numpy as np
 
+from .designs import BUILTIN_DESIGNS
 from .errors import InputError
 from .noise import seabed_residuals
-from .simulate import LABELS, Pile, Scene, Seabed, hit_objects, truth_spacings
+from .simulate import LABELS, Pile, Reef, Scene, Seabed, hit_objects, reef_boxes, reef_truth, truth_spacings
 
-__all__ = ["InjectedPile", "Injection", "inject_piles", "ping_origins", "read_pile_file"]
+__all__ = ["InjectedPile", "InjectedReef", "Injection", "inject", "ping_origins", "read_pile_file",
+           "read_reef_file"]
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,22 @@ class InjectedPile:
     group: int = 1
 
 
+@dataclass(frozen=True)
+class InjectedReef:
+    """A reef to inject: a built-in design (``cross2``, ``cross1``, ``hollow``, ``triangle``)
+    at (x, y) in the survey's coordinates, turned by ``bearing_deg``, built ``scale`` times
+    the design's size, its base ``burial`` m below the survey's seabed there (sunk)."""
+
+    id: int
+    x: float
+    y: float
+    kind: str
+    bearing_deg: float = 0.0
+    scale: float = 1.0
+    burial: float = 0.1
+    group: int = 1
+
+
 @dataclass(frozen=True, eq=False)
 class Injection:
     """An injected survey and its truth.
@@ -61,10 +81,11 @@ class Injection:
     xyz : ndarray, shape (N, 3)
         The soundings, those on piles moved.
     labels, ident : ndarray (N,)
-        What each sounding now hits (:data:`mbinspect.simulate.LABELS`) and the pile id.
+        What each sounding now hits (:data:`mbinspect.simulate.LABELS`) and the pile or
+        reef id.
     truth : dict
-        ``piles`` and ``spacings`` as :func:`mbinspect.simulate.simulate` writes them, the
-        counts, and the pings whose geometry could not be estimated.
+        ``piles``, ``spacings`` and ``reefs`` as :func:`mbinspect.simulate.simulate` writes
+        them, the counts, and the pings whose geometry could not be estimated.
     """
 
     xyz: np.ndarray
@@ -124,18 +145,58 @@ def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *
     return origins, np.isfinite(origins[:, 0])
 
 
-def _seabed_at(xyz: np.ndarray, x: float, y: float, radius: float) -> float:
+def _seabed_at(xyz: np.ndarray, x: float, y: float, radius: float, what: str = "pile") -> float:
     d = np.hypot(xyz[:, 0] - x, xyz[:, 1] - y)
     for r in (radius + 1.0, radius + 3.0, radius + 10.0):
         near = xyz[d < r, 2]
         if len(near) >= 5:
             return float(np.median(near))
-    raise InputError(f"pile at ({x:.2f}, {y:.2f}): no soundings within {radius + 10:.0f} m; "
-                     "expected a pile inside the survey")
+    raise InputError(f"{what} at ({x:.2f}, {y:.2f}): no soundings within {radius + 10:.0f} m; "
+                     f"expected a {what} inside the survey")
 
 
-def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence[InjectedPile]) -> Injection:
-    """Put ``piles`` into a survey's soundings (see the module's notes).
+def _scene_piles(pts: np.ndarray, origin: np.ndarray, piles: Sequence[InjectedPile]
+                 ) -> tuple[list[Pile], list[dict[str, Any]]]:
+    """The simulator's piles (local frame) and their truth records (survey frame)."""
+    scene, truth = [], []
+    for p in piles:
+        seabed = _seabed_at(pts, p.x, p.y, p.radius)
+        top = p.top if p.top is not None else seabed + float(p.height or 0.0)
+        if not top > seabed:
+            raise InputError(f"pile {p.id}: top {top:.2f} m is not above the seabed ({seabed:.2f} m)")
+        scene.append(Pile(p.x - origin[0], p.y - origin[1], top, p.radius, p.tilt_deg,
+                          p.tilt_azimuth_deg, bottom_z=seabed - 5.0))
+        truth.append({"id": p.id, "x": p.x, "y": p.y, "z": top, "radius": p.radius,
+                      "tilt_deg": p.tilt_deg, "tilt_azimuth_deg": p.tilt_azimuth_deg % 360.0,
+                      "group": p.group, "seabed_z": seabed})
+    return scene, truth
+
+
+def _scene_reefs(pts: np.ndarray, origin: np.ndarray, reefs: Sequence[InjectedReef]
+                 ) -> tuple[list[Reef], list[dict[str, Any]]]:
+    """The simulator's reefs (local frame) and their truth records (survey frame): the
+    seabed under each is the survey's median level around it, so heights are exposed heights."""
+    scene, truth = [], []
+    for r in reefs:
+        if r.kind not in BUILTIN_DESIGNS:
+            raise InputError(f"reef {r.id}: kind {r.kind!r}; expected one of {', '.join(BUILTIN_DESIGNS)}")
+        size = BUILTIN_DESIGNS[r.kind].radius * r.scale
+        level = _seabed_at(pts, r.x, r.y, size, what="reef")
+        x, y = r.x - origin[0], r.y - origin[1]
+        reef = Reef(r.id, r.kind, x, y, r.bearing_deg,
+                    reef_boxes(r.kind, x, y, r.bearing_deg, level - r.burial, r.scale), group=r.group)
+        record = reef_truth(reef, Seabed(z0=level, roughness=0.0), (float(origin[0]), float(origin[1])))
+        if not record["height"] > 0:
+            raise InputError(f"reef {r.id}: buried {r.burial} m, deeper than its own height; "
+                             "expected part of it above the seabed")
+        scene.append(reef)
+        truth.append(record)
+    return scene, truth
+
+
+def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[InjectedPile] = (),
+           reefs: Sequence[InjectedReef] = ()) -> Injection:
+    """Put ``piles`` and ``reefs`` into a survey's soundings (see the module's notes).
 
     Parameters
     ----------
@@ -144,6 +205,7 @@ def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence
     fields : dict of ndarray (N,)
         ``ping`` and ``beam_angle`` are needed (native sonar formats give them).
     piles : sequence of InjectedPile
+    reefs : sequence of InjectedReef
 
     Returns
     -------
@@ -152,32 +214,23 @@ def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence
     Raises
     ------
     InputError
-        No ``ping`` or ``beam_angle`` field, a pile outside the survey, or piles that overlap.
+        No ``ping`` or ``beam_angle`` field, an object outside the survey, objects that
+        overlap, a reef kind that is not a built-in design or buried deeper than its height.
     """
     missing = [k for k in ("ping", "beam_angle") if k not in fields]
     if missing:
         raise InputError(f"the survey has no {' or '.join(missing)} per sounding; expected a sonar file "
                          "(GSF, KMALL, .all) or a cloud that keeps them")
+    if not piles and not reefs:
+        raise InputError("nothing to inject; expected piles or reefs")
     pts = np.asarray(xyz, float)
     ping = np.asarray(fields["ping"], np.int64)
     origin = pts[:, :2].mean(axis=0)  # a local frame
     local = pts - [origin[0], origin[1], 0.0]
     o, ok = ping_origins(local, ping, np.asarray(fields["beam_angle"], float))
-    for a, b in itertools.combinations(piles, 2):
-        if math.hypot(a.x - b.x, a.y - b.y) < a.radius + b.radius + 0.2:
-            raise InputError(f"piles {a.id} and {b.id} overlap; expected piles apart")
-    scene_piles, truth_piles = [], []
-    for p in piles:
-        seabed = _seabed_at(pts, p.x, p.y, p.radius)
-        top = p.top if p.top is not None else seabed + float(p.height or 0.0)
-        if not top > seabed:
-            raise InputError(f"pile {p.id}: top {top:.2f} m is not above the seabed ({seabed:.2f} m)")
-        scene_piles.append(Pile(p.x - origin[0], p.y - origin[1], top, p.radius, p.tilt_deg,
-                                p.tilt_azimuth_deg, bottom_z=seabed - 5.0))
-        truth_piles.append({"id": p.id, "x": p.x, "y": p.y, "z": top, "radius": p.radius,
-                            "tilt_deg": p.tilt_deg, "tilt_azimuth_deg": p.tilt_azimuth_deg % 360.0,
-                            "group": p.group,
-                            "seabed_z": seabed})
+    _check_apart(piles, reefs)
+    scene_piles, truth_piles = _scene_piles(pts, origin, piles)
+    scene_reefs, truth_reefs = _scene_reefs(pts, origin, reefs)
     labels = np.zeros(len(pts), np.int8)
     ident = np.zeros(len(pts), np.int32)
     out = pts.copy()
@@ -186,7 +239,8 @@ def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence
         ray = local[rows] - o[rows]
         length = np.linalg.norm(ray, axis=1)
         d = ray / length[:, None]
-        scene = Scene(Seabed(z0=float(np.median(pts[:, 2]))), piles=tuple(scene_piles))
+        scene = Scene(Seabed(z0=float(np.median(pts[:, 2]))), piles=tuple(scene_piles),
+                      reefs=tuple(scene_reefs))
         t, lab, idn = hit_objects(scene, o[rows], d, length)
         hit = lab != LABELS["seabed"]
         if hit.any():
@@ -196,17 +250,84 @@ def inject_piles(xyz: np.ndarray, fields: dict[str, np.ndarray], piles: Sequence
             out[rows[hit]] = moved + [origin[0], origin[1], 0.0]
             labels[rows[hit]] = lab[hit]
             ident[rows[hit]] = idn[hit]
-    spacings = truth_spacings(truth_piles)
     counts = {"soundings": int(len(pts)), "on_piles": int((labels == LABELS["pile"]).sum()),
-              "per_pile": {str(p["id"]): int((ident == p["id"]).sum()) for p in truth_piles},
+              "on_reefs": int((labels == LABELS["reef"]).sum()),
+              "per_pile": {str(p["id"]): int(((labels == LABELS["pile"]) & (ident == p["id"])).sum())
+                           for p in truth_piles},
+              "per_reef": {str(r["id"]): int(((labels == LABELS["reef"]) & (ident == r["id"])).sum())
+                           for r in truth_reefs},
               "without_ping_geometry": int((~ok).sum())}
-    truth = {"preset": "inject", "piles": truth_piles, "spacings": spacings, "counts": counts,
+    truth = {"preset": "inject", "piles": truth_piles, "spacings": truth_spacings(truth_piles),
+             "counts": counts,
              "design": [{"group": p["group"], "id": p["id"], "x": p["x"], "y": p["y"]} for p in truth_piles],
-             "reefs": []}
+             "reefs": truth_reefs}
     return Injection(out, labels, ident, truth)
 
 
+def _check_apart(piles: Sequence[InjectedPile], reefs: Sequence[InjectedReef]) -> None:
+    """Objects must not overlap (a reef's reach is half its design's length times its scale)."""
+    reach = [(f"pile {p.id}", p.x, p.y, p.radius) for p in piles] + [
+        (f"reef {r.id}", r.x, r.y, BUILTIN_DESIGNS[r.kind].radius * r.scale if r.kind in BUILTIN_DESIGNS
+         else 0.0) for r in reefs]
+    for a, b in itertools.combinations(reach, 2):
+        if math.hypot(a[1] - b[1], a[2] - b[2]) < a[3] + b[3] + 0.2:
+            raise InputError(f"{a[0]} and {b[0]} overlap; expected objects apart")
+
+
 _PILE_COLUMNS = ("id", "x", "y", "radius", "top", "height", "tilt_deg", "tilt_azimuth_deg", "group")
+_REEF_COLUMNS = ("id", "x", "y", "kind", "bearing_deg", "scale", "burial", "group")
+_POSITIVE = ("radius", "scale")
+
+
+def _read_rows(path: str | Path, columns: Sequence[str], required: Sequence[str], what: str
+               ) -> list[tuple[int, dict[str, Any]]]:
+    """The rows of an object CSV, typed (``id`` and ``group`` integers, ``kind`` text, the
+    rest numbers), each with its line number; every missing or bad value named by file,
+    line and column."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read ({exc.strerror})") from None
+    reader = csv.DictReader(text.splitlines())
+    names = [n.strip().lower() for n in reader.fieldnames or []]
+    if set(required) - set(names):
+        optional = [c for c in columns if c not in required]
+        raise InputError(f"{p}: columns {','.join(names) or '(none)'}; expected {','.join(required)} "
+                         f"(optional {','.join(optional)})")
+    rows = []
+    for line, row in enumerate(reader, start=2):
+        vals = {k.strip().lower(): (v or "").strip() for k, v in row.items() if k}
+        parsed: dict[str, Any] = {}
+        for key in columns:
+            raw = vals.get(key, "")
+            if raw == "":
+                if key in required:
+                    raise InputError(f"{p}: line {line}, column {key}: empty; expected a value")
+                continue
+            try:
+                parsed[key] = raw if key == "kind" else int(raw) if key in ("id", "group") else float(raw)
+            except ValueError:
+                raise InputError(f"{p}: line {line}, column {key}: {raw!r}; expected "
+                                 f"{'an integer' if key in ('id', 'group') else 'a number'}") from None
+            wrong = _value_problem(key, parsed[key])
+            if wrong:
+                raise InputError(f"{p}: line {line}, column {key}: {raw!r}; expected {wrong}")
+        rows.append((line, parsed))
+    if not rows:
+        raise InputError(f"{p}: no {what}s; expected a row per {what}")
+    return rows
+
+
+def _value_problem(key: str, value: Any) -> str | None:
+    """What a parsed value should have been, or None when it is fine."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "a finite number"
+    if key in _POSITIVE and not value > 0:
+        return "a positive number"
+    if key == "burial" and not value >= 0:
+        return "a number >= 0 (m sunk)"
+    return None
 
 
 def read_pile_file(path: str | Path) -> list[InjectedPile]:
@@ -218,39 +339,28 @@ def read_pile_file(path: str | Path) -> list[InjectedPile]:
     InputError
         A missing column or a bad value, naming the file, line and column.
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read ({exc.strerror})") from None
-    reader = csv.DictReader(text.splitlines())
-    names = [n.strip().lower() for n in reader.fieldnames or []]
-    need = {"id", "x", "y", "radius"} - set(names)
-    if need or not ({"top", "height"} & set(names)):
-        raise InputError(f"{p}: columns {','.join(names) or '(none)'}; expected id,x,y,radius and top "
-                         f"or height (optional {','.join(_PILE_COLUMNS[6:])})")
     piles = []
-    for line, row in enumerate(reader, start=2):
-        vals = {k.strip().lower(): (v or "").strip() for k, v in row.items() if k}
-        parsed: dict[str, Any] = {}
-        for key in _PILE_COLUMNS:
-            raw = vals.get(key, "")
-            if raw == "":
-                continue
-            try:
-                parsed[key] = int(raw) if key in ("id", "group") else float(raw)
-            except ValueError:
-                raise InputError(f"{p}: line {line}, column {key}: {raw!r}; expected "
-                                 f"{'an integer' if key in ('id', 'group') else 'a number'}") from None
-        for key in ("id", "x", "y", "radius"):
-            if key not in parsed:
-                raise InputError(f"{p}: line {line}, column {key}: empty; expected a value")
-        if not parsed["radius"] > 0:
-            raise InputError(f"{p}: line {line}, column radius: {parsed['radius']}; "
-                             "expected a positive number")
+    for line, parsed in _read_rows(path, _PILE_COLUMNS, ("id", "x", "y", "radius"), "pile"):
         if "top" not in parsed and "height" not in parsed:
-            raise InputError(f"{p}: line {line}: no top or height; expected one of them")
+            raise InputError(f"{path}: line {line}: no top or height; expected one of them")
         piles.append(InjectedPile(**parsed))
-    if not piles:
-        raise InputError(f"{p}: no piles; expected a row per pile")
     return piles
+
+
+def read_reef_file(path: str | Path) -> list[InjectedReef]:
+    """Reefs to inject from a CSV: ``id,x,y,kind`` (a built-in design: cross2, cross1,
+    hollow, triangle); optional ``bearing_deg``, ``scale`` (as built / design), ``burial``
+    (m sunk below the seabed, default 0.1) and ``group``.
+
+    Raises
+    ------
+    InputError
+        A missing column or a bad value, naming the file, line and column.
+    """
+    reefs = []
+    for line, parsed in _read_rows(path, _REEF_COLUMNS, ("id", "x", "y", "kind"), "reef"):
+        if parsed["kind"] not in BUILTIN_DESIGNS:
+            raise InputError(f"{path}: line {line}, column kind: {parsed['kind']!r}; expected one of "
+                             f"{', '.join(BUILTIN_DESIGNS)}")
+        reefs.append(InjectedReef(**parsed))
+    return reefs

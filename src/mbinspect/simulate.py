@@ -10,13 +10,15 @@ what makes field data hard rather than sprinkling points on shapes:
   as finite capped cylinders (radius, top elevation, tilt and tilt bearing), reefs as
   unions of oriented boxes (cross-shaped single and double layer, hollow square,
   triangular) and distractors (boulders as spheres, debris as small boxes).
-* **Errors**: range noise growing with range, beam-pointing noise growing as
-  1/cos(beam angle) (so the error grows with angle and range), per-ping position and
-  heave noise (RTK grade by default), residual roll per ping, an optional refraction
-  bias on the outer beams, grazing-angle dropouts, multipath spikes below the seabed
-  and water-column noise.
+* **Errors**: range noise growing with range and beam angle, beam-pointing noise growing
+  as 1/cos(beam angle), both heavy-tailed, per-ping position and heave noise (RTK grade),
+  residual roll per ping, per-line height offsets and refraction "smiles", per-beam range
+  biases, grazing-angle dropouts, multipath spikes below the seabed and water-column
+  noise. Named sonars (:data:`SONARS`) set them: ``shallow`` (the default, calibrated
+  against real files), ``deep`` and the idealised ``classic``.
 * **Backscatter**: by material (concrete and rock brighter than sediment), with a
-  Lambertian fall-off, a near-specular peak and speckle; exported as ``intensity``
+  Lambertian fall-off, a near-specular peak, speckle and (uncalibrated, as stored by
+  real systems) a gain and an angular fall that change from line to line; exported as ``intensity``
   = backscatter strength in dB + 100.
 
 Coordinates are local to the scene during ray casting and shifted by the scene's
@@ -70,7 +72,11 @@ __all__ = [
     "JacketOptions",
     "ReefFieldOptions",
     "PRESETS",
+    "SONARS",
+    "named_sonar",
+    "default_options",
     "reef_boxes",
+    "reef_truth",
     "survey",
     "simulate",
     "LABELS",
@@ -319,6 +325,24 @@ class Sonar:
         gives 3.9 and 3 gives 3.5.
     speckle_db : float
         Backscatter speckle, 1σ (dB); real files show 1.3–12 dB within an angle bin.
+    range_angle_growth : float
+        Range noise grows off nadir by the factor 1 + growth·|sin θ| / sin 60°: the
+        bottom detection worsens as the footprint lengthens (0: no growth).
+    line_offset_sigma : float
+        Per-line vertical offset, 1σ (m): tide, draft and heave errors that make
+        overlapping strips disagree.
+    refraction_sigma_deg : float
+        Per-line random sound-speed error: a depression-angle bias at the outermost beam
+        (deg, 1σ), drawn for each line and shaped like ``refraction_bias_deg`` (the
+        across-swath "smile").
+    beam_bias_sigma : float
+        Per-line, per-beam range offset, 1σ (m): the stripes along track that a beam's
+        own detection bias leaves.
+    bs_line_sigma_db : float
+        Per-line backscatter gain offset, 1σ (dB): uncalibrated levels.
+    bs_angle_db : float
+        Uncalibrated angular response: the stored backscatter falls by this many dB
+        (× a per-line factor drawn in [0.5, 1.5]) from nadir to the outermost beam.
     """
 
     swath_deg: float = 120.0
@@ -340,6 +364,12 @@ class Sonar:
     noise_scale: float = 1.0
     tail_dof: float = 0.0
     speckle_db: float = 2.5
+    range_angle_growth: float = 0.0
+    line_offset_sigma: float = 0.0
+    refraction_sigma_deg: float = 0.0
+    beam_bias_sigma: float = 0.0
+    bs_line_sigma_db: float = 0.0
+    bs_angle_db: float = 0.0
 
     def beam_angles(self) -> np.ndarray:
         """Nominal beam angles (radians, + to starboard), shape (n_beams,)."""
@@ -684,6 +714,16 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         np.array([sonar.position_sigma, sonar.position_sigma, sonar.vertical_sigma]) * ns
     )
     droll = rng.normal(0.0, math.radians(sonar.attitude_sigma_deg) * ns, n_ping)
+    # per-line errors, from their own stream so that a model without them draws as before
+    lrng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+    n_lines = len(plan.lines)
+    line_dz = lrng.normal(0.0, sonar.line_offset_sigma * ns, n_lines)
+    line_refr = math.radians(sonar.refraction_bias_deg) + lrng.normal(
+        0.0, math.radians(sonar.refraction_sigma_deg) * ns, n_lines)
+    beam_bias = lrng.normal(0.0, sonar.beam_bias_sigma * ns, (n_lines, len(beams)))
+    bs_gain = lrng.normal(0.0, sonar.bs_line_sigma_db, n_lines)
+    bs_fall = sonar.bs_angle_db * lrng.uniform(0.5, 1.5, n_lines)
+    growth = 1.0 + sonar.range_angle_growth * np.abs(np.sin(beams)) / math.sin(math.radians(60.0))
     targets = _targets(scene)
     out_xyz, out_int, out_ang, out_line, out_ping, out_lab, out_id = [], [], [], [], [], [], []
     batch = max(1, 400_000 // len(beams))
@@ -703,21 +743,24 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         d = dirs.reshape(-1, 3)
         t, label, ident, normal, materials = _cast(scene, targets, o, d)
         pi = np.repeat(np.arange(sl.start, sl.stop), len(beams))
-        beam = np.tile(beams, m)
+        li = line_id[pi] - 1
+        bi = np.tile(np.arange(len(beams)), m)
+        beam = beams[bi]
         # detection: grazing incidences return nothing
         cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
         keep = rng.random(len(t)) < np.clip((cos_inc - 0.03) / 0.12, 0.0, 1.0)
         # measurement errors: range and pointing, growing with range and angle
-        sig_r = (sonar.range_sigma + sonar.range_sigma_rel * t) * ns
+        sig_r = (sonar.range_sigma + sonar.range_sigma_rel * t) * ns * growth[bi]
         sig_a = math.radians(sonar.angle_sigma_deg) * ns / np.cos(beam)
-        bias = math.radians(sonar.refraction_bias_deg) * (beam / beams.max()) ** 2 * np.sign(beam)
+        bias = line_refr[li] * (beam / beams.max()) ** 2 * np.sign(beam)
         dang = _noise(rng, len(t), sonar.tail_dof) * sig_a + droll[pi] + bias
-        rng_meas = t + _noise(rng, len(t), sonar.tail_dof) * sig_r
+        rng_meas = t + _noise(rng, len(t), sonar.tail_dof) * sig_r + beam_bias[li, bi]
         # derivative of the beam direction with respect to its angle (in the swath plane)
         th = theta.reshape(-1)
         dtheta = (-np.sin(th)[:, None] * down
                   + np.cos(th)[:, None] * np.repeat(across, len(beams), axis=0))
         xyz = o + rng_meas[:, None] * d + (t * dang)[:, None] * dtheta + dpos[pi]
+        xyz[:, 2] += line_dz[li]
         # outliers
         u = rng.random(len(t))
         spike = u < sonar.spike_rate * ns
@@ -732,7 +775,8 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         bs = (mat_bs[_material_of(label, ident, scene, materials)]
               + 10 * np.log10(np.maximum(cos_inc**2, 1e-3))
               + 8.0 * np.exp(-((inc / math.radians(8.0)) ** 2))
-              + rng.normal(0.0, sonar.speckle_db, len(t)))
+              + rng.normal(0.0, sonar.speckle_db, len(t))
+              + bs_gain[li] - bs_fall[li] * np.abs(beam) / beams.max())
         bs = np.where(label == LABELS["outlier"], rng.normal(-45.0, 5.0, len(t)), bs)
         keep &= np.isfinite(t)
         out_xyz.append(xyz[keep])
@@ -819,8 +863,15 @@ def _reef_gap(a: Reef, b: Reef) -> float:
     return min(polygon_distance(p.corners2d(), q.corners2d()) for p in a.boxes for q in b.boxes)
 
 
-def _reef_truth(reef: Reef, seabed: Seabed, origin: tuple[float, float], cell: float = 0.02
-                ) -> dict[str, Any]:
+def reef_truth(reef: Reef, seabed: Seabed, origin: tuple[float, float], cell: float = 0.02
+               ) -> dict[str, Any]:
+    """A reef's truth record as ``truth.json`` holds it: centre, seabed and top elevations,
+    exposed height, footprint area, rectangle, volume, outline and boxes.
+
+    Measured on a ``cell`` m raster of the boxes' union; the height is the top above the
+    seabed at the footprint's centre, so a sunk reef has its exposed height. Local
+    coordinates, ``origin`` added on output.
+    """
     corners = np.concatenate([bx.corners2d() for bx in reef.boxes])
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     gx = np.arange(lo[0] + cell / 2, hi[0], cell)
@@ -943,11 +994,42 @@ class WharfOptions:
     origin_y: float = 3372900.0  #: northing of the wharf centre
 
 
-#: Preset name -> (options class, default sonar).
-PRESETS: dict[str, tuple[type, Sonar]] = {
-    "jacket": (JacketOptions, Sonar()),
-    "wharf": (WharfOptions, Sonar()),
-    "reef-field": (ReefFieldOptions, Sonar(n_beams=256)),
+#: Named sonars: the error model a simulation starts from (its fields stay overridable).
+#: ``shallow`` (the default) is calibrated against the real files of 4–58 m in
+#: ``benchmarks/real_noise.py``; ``classic`` is the idealised model the first studies used.
+SONARS: dict[str, Sonar] = {
+    # a 400 kHz shallow-water system at 10-30 m: heavy tails, noise growing off nadir,
+    # strips that disagree, uncalibrated backscatter
+    "shallow": Sonar(angle_sigma_deg=0.02, tail_dof=3.5, speckle_db=5.0, range_angle_growth=1.2,
+                     line_offset_sigma=0.03,
+                     refraction_sigma_deg=0.03, beam_bias_sigma=0.003, bs_line_sigma_db=3.0,
+                     bs_angle_db=10.0),
+    # a 30 kHz deep-water system at 100-1000 m: wider beams, coarser detection, no RTK
+    "deep": Sonar(swath_deg=130.0, n_beams=288, range_sigma=0.015, range_sigma_rel=0.0001,
+                  angle_sigma_deg=0.015, position_sigma=0.05, vertical_sigma=0.025,
+                  tail_dof=3.5, speckle_db=5.0, range_angle_growth=0.8, line_offset_sigma=0.05,
+                  refraction_sigma_deg=0.03, beam_bias_sigma=0.005, bs_line_sigma_db=3.0,
+                  bs_angle_db=10.0),
+    # the first studies' idealised model: normal noise, no line errors, calibrated backscatter
+    "classic": Sonar(),
+}
+
+#: The sonar a simulation uses unless told.
+DEFAULT_SONAR = "shallow"
+
+
+@dataclass(frozen=True)
+class SonarChoice:
+    """The one simulation option that is not a field of :class:`Sonar`."""
+
+    sonar: str = DEFAULT_SONAR  #: named sonar (SONARS) whose fields the sonar options override
+
+
+#: Preset name -> options class.
+PRESETS: dict[str, type] = {
+    "jacket": JacketOptions,
+    "wharf": WharfOptions,
+    "reef-field": ReefFieldOptions,
 }
 
 
@@ -1168,10 +1250,34 @@ class Simulation:
                 for r in self.truth["reefs"]]
 
 
-def _option_names(preset: str) -> tuple[type, Sonar]:
+def _option_names(preset: str) -> type:
     if preset not in PRESETS:
         raise ParameterError(f"preset: {preset!r}; expected one of {', '.join(PRESETS)}", option="preset")
     return PRESETS[preset]
+
+
+def named_sonar(name: str) -> Sonar:
+    """The :class:`Sonar` of a name in :data:`SONARS`.
+
+    Raises
+    ------
+    ParameterError
+        An unknown name.
+
+    Examples
+    --------
+    >>> named_sonar("classic").tail_dof
+    0.0
+    """
+    if name not in SONARS:
+        raise ParameterError(f"sonar: {name!r}; expected one of {', '.join(SONARS)}", option="sonar")
+    return SONARS[name]
+
+
+def default_options(preset: str, sonar: str = DEFAULT_SONAR) -> dict[str, Any]:
+    """Every option of a preset with its value before overrides (``--show-options``)."""
+    return {**dataclasses.asdict(_option_names(preset)()), "sonar": sonar,
+            **dataclasses.asdict(named_sonar(sonar))}
 
 
 #: Most soundings a simulation makes unless ``force`` (about 5 GB of memory at this size).
@@ -1216,14 +1322,18 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     (4, 1)
     """
     integer("seed", seed, minimum=0, maximum=2**63 - 1)
-    opt_cls, sonar = _option_names(preset)
+    opt_cls = _option_names(preset)
+    overrides = dict(overrides)
+    sonar_name = overrides.pop("sonar", DEFAULT_SONAR)
+    sonar = named_sonar(sonar_name)
     opt_fields = {f.name for f in dataclasses.fields(opt_cls)}
     sonar_fields = {f.name for f in dataclasses.fields(Sonar)}
     unknown = set(overrides) - opt_fields - sonar_fields
     if unknown:
         raise ParameterError(
             f"{sorted(unknown)[0]}: not an option of the {preset} preset; "
-            f"expected one of {', '.join(sorted(opt_fields | sonar_fields))}", option=sorted(unknown)[0]
+            f"expected one of {', '.join(sorted(opt_fields | sonar_fields | {'sonar'}))}",
+            option=sorted(unknown)[0]
         )
     opt = opt_cls(**{k: v for k, v in overrides.items() if k in opt_fields})
     sonar = dataclasses.replace(sonar, **{k: v for k, v in overrides.items() if k in sonar_fields})
@@ -1242,6 +1352,7 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     cloud, labels, ident = survey(scene, plan, seed=int(noise_seed.generate_state(1)[0]),
                                   progress=progress)
     truth = _truth(preset, seed, opt, sonar, scene, labels, extra)
+    truth["sonar"] = {"name": sonar_name, **truth["sonar"]}
     return Simulation(cloud, labels, ident, truth, scene, plan)
 
 
@@ -1310,7 +1421,7 @@ def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels:
                       "tilt_azimuth_deg": p.tilt_bearing_deg % 360.0, "group": groups_of.get(i + 1, 1),
                       "seabed_z": float(scene.seabed.elevation(p.x, p.y))})
     spacings = truth_spacings(piles)
-    reefs = [_reef_truth(r, scene.seabed, scene.origin) for r in scene.reefs]
+    reefs = [reef_truth(r, scene.seabed, scene.origin) for r in scene.reefs]
     groups = []
     for g in sorted({r.group for r in scene.reefs}):
         members = [t for t in reefs if t["group"] == g]
@@ -1344,6 +1455,6 @@ def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels:
 
 def option_fields(preset: str) -> list[dataclasses.Field[Any]]:
     """Every overridable option of a preset (its own fields, then the sonar's)."""
-    opt_cls, _ = _option_names(preset)
-    return list(dataclasses.fields(opt_cls)) + list(dataclasses.fields(Sonar))
+    return (list(dataclasses.fields(_option_names(preset))) + list(dataclasses.fields(SonarChoice))
+            + list(dataclasses.fields(Sonar)))
 

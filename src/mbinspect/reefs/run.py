@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..errors import DataError
+from ..errors import DataError, ParameterError
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
@@ -136,6 +136,10 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     reefs, groups = number_reefs(reefs, opts.group_link)
     evaluation, ref_xy = None, None
     if reference is not None:
+        if not (isinstance(reference, tuple) and len(reference) == 2
+                and np.ndim(reference[0]) == 2 and np.shape(reference[0])[1] == 2):
+            raise ParameterError("reference: not a pair (positions (R, 2), ids); expected what "
+                                 "mbinspect.evaluate.read_reference returns", option="reference")
         evaluation, warn = score_reefs(reefs, reference, tolerance=opts.tolerance)
         warnings += warn
         ref_xy = np.asarray(reference[0])
