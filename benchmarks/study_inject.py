@@ -1,7 +1,7 @@
-"""Piles injected into the real files of ``../shared/real``: what these sonars and lines can measure.
+"""Piles and reefs injected into the real files of ``../shared/real``: what their lines can measure.
 
-Run: ``python benchmarks/study_inject.py [--placements 5]``. For each real file with at
-least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a jacket of four
+Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs]``. For each
+real file with at least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a jacket of four
 piles (radius 0.5 m, sides 6 m or half the seabed's width, tops 2 m above the seabed) is
 injected at seeded placements (shift within 1.5 m of the centre, any turn) with
 ``mbinspect.inject``: each sounding whose beam meets a pile is moved onto it along its own
@@ -10,6 +10,12 @@ them. Per file: pings, soundings per pile, piles found and flagged, spacing erro
 max over the spacings of unflagged piles and over all, the share within the reported 2σ,
 runs stopped and placements over holes. The public files are short (4–67 pings), so few
 soundings reach a pile: the figure that matters is whether what cannot be measured is flagged.
+
+Reefs: four built-in designs (cross1, cross2, hollow and triangle, the last two at 0.7 of
+their size, sunk 0.1 m) on a square of 6 m sides (or half the seabed's width, at least
+4.5 m; on a smaller file a cross1 and a hollow 5.5 m apart) at seeded placements;
+``extract_reefs`` with the reference (the injected centres) and the designs scores them:
+reefs found, false reefs, objects set aside, and the exposed height error of the matches.
 """
 
 from __future__ import annotations
@@ -24,9 +30,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import real_clouds, table  # noqa: E402
 from mbinspect.errors import MBInspectError  # noqa: E402
-from mbinspect.inject import InjectedPile, inject  # noqa: E402
+from mbinspect.inject import InjectedPile, InjectedReef, inject  # noqa: E402
 from mbinspect.io import PointCloud  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
+from mbinspect.reefs import extract_reefs  # noqa: E402
 
 SIDE, RADIUS, HEIGHT = 6.0, 0.5, 2.0  # side: at most
 
@@ -38,6 +45,54 @@ def _jacket(cx: float, cy: float, side: float, rng: np.random.Generator) -> list
     c, s = math.cos(turn), math.sin(turn)
     return [InjectedPile(i + 1, cx + sx + side / 2 * (c * u - s * v), cy + sy + side / 2 * (s * u + c * v),
                          RADIUS, height=HEIGHT) for i, (u, v) in enumerate(corners)]
+
+
+#: the reefs of a placement: kind and scale, one per corner of the square
+REEFS = (("cross1", 1.0), ("cross2", 1.0), ("hollow", 0.7), ("triangle", 0.7))
+
+
+def _reef_square(cx: float, cy: float, side: float, rng: np.random.Generator) -> list[InjectedReef]:
+    """The four reefs on a square's corners, or on a small file two of them 5.5 m apart."""
+    turn = rng.uniform(0, 2 * math.pi)
+    sx, sy = rng.uniform(-1.0, 1.0, 2)
+    if side >= 4.5:
+        corners, kinds = [(-side / 2, -side / 2), (side / 2, -side / 2), (side / 2, side / 2),
+                          (-side / 2, side / 2)], REEFS
+    else:
+        corners, kinds = [(-2.75, 0.0), (2.75, 0.0)], (REEFS[0], REEFS[2])
+    c, s = math.cos(turn), math.sin(turn)
+    return [InjectedReef(i + 1, cx + sx + c * u - s * v, cy + sy + s * u + c * v,
+                         kind, bearing_deg=float(rng.uniform(0, 360)), scale=scale)
+            for i, ((u, v), (kind, scale)) in enumerate(zip(corners, kinds, strict=True))]
+
+
+def _reef_row(name: str, cloud: PointCloud, side: float, placements: int) -> list[str]:
+    """Inject the four reefs at each placement and score ``extract_reefs`` (with designs)."""
+    cx, cy = np.median(cloud.xyz[:, :2], axis=0)
+    hits, tp, fp, fn, others, dh, unplaced, stopped = [], 0, 0, 0, 0, [], 0, 0
+    for k in range(placements):
+        try:
+            inj = inject(cloud.xyz, cloud.fields, reefs=_reef_square(cx, cy, side, np.random.default_rng(k)))
+        except MBInspectError:
+            unplaced += 1
+            continue
+        hits += list(inj.truth["counts"]["per_reef"].values())
+        truth = inj.truth["reefs"]
+        ref = (np.array([[r["x"], r["y"]] for r in truth]), tuple(r["id"] for r in truth))
+        try:
+            res = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields)), reference=ref,
+                                design=",".join(k for k, _ in REEFS))
+        except MBInspectError:
+            stopped += 1
+            fn += len(truth)
+            continue
+        ev = res.evaluation
+        tp, fp, fn, others = tp + ev.tp, fp + ev.fp, fn + ev.fn, others + len(res.others)
+        dh += [res.reefs[i].height - truth[j]["height"] for i, j, _ in ev.matches]
+    per = f"{int(np.median(hits))}" if hits else "-"
+    return [name[:30], f"{-np.median(cloud.xyz[:, 2]):.0f}", f"{side:.1f}", per, f"{tp}/{tp + fn}", f"{fp}",
+            f"{others}", f"{100 * np.median(np.abs(dh)):.1f}" if dh else "-",
+            f"{100 * np.max(np.abs(dh)):.1f}" if dh else "-", f"{stopped}", f"{unplaced}"]
 
 
 def _files() -> list[tuple[str, PointCloud]]:
@@ -52,9 +107,22 @@ def _files() -> list[tuple[str, PointCloud]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--placements", type=int, default=5)
+    ap.add_argument("--objects", default="piles,reefs", help="piles, reefs or both")
     args = ap.parse_args()
+    files = _files()
+    if "reefs" in args.objects:
+        reef_rows = []
+        for name, cloud in files:
+            lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
+            reef_rows.append(_reef_row(name, cloud, min(6.0, float((hi - lo).min()) / 2), args.placements))
+        print(table(["file", "depth m", "side m", "soundings per reef (median)", "reefs found", "false reefs",
+                     "others", "height err median cm", "height err max cm", "runs stopped", "not placed"],
+                    reef_rows))
+        print()
+    if "piles" not in args.objects:
+        return
     rows, reasons = [], set()
-    for name, cloud in _files():
+    for name, cloud in files:
         cx, cy = np.median(cloud.xyz[:, :2], axis=0)
         lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
         side = min(SIDE, float((hi - lo).min()) / 2)

@@ -75,11 +75,15 @@ def test_hollow_reefs_broken_between_pings_are_whole_again_with_their_design():
     # (on this scene with the classic sonar; with the shallow one its noise happens to join them)
     sim = simulate("reef-field", seed=1, groups="hollow", per_group=16, close_pairs=0, boulders=0,
                    debris=0, sonar="classic")
-    free = extract_reefs(sim.cloud, reference=_reference(sim)).evaluation
+    # with the paper's fixed 0.5 m radius filter (noise_spacing 0), which also strips 4,235
+    # wall soundings here; the radius grown with the spacing keeps all but a few hundred
+    fixed = extract_reefs(sim.cloud, reference=_reference(sim), noise_spacing=0.0)
+    free = fixed.evaluation
     res = extract_reefs(sim.cloud, reference=_reference(sim), design="hollow")
     ev = res.evaluation
     assert free is not None and ev is not None
     assert free.fp + free.fn > 0 or max(d for _, _, d in free.matches) > 0.5  # the problem is real
+    assert res.filters["radius"]["n_removed"] < fixed.filters["radius"]["n_removed"] / 5
     assert (ev.tp, ev.fp, ev.fn) == (16, 0, 0)
     assert max(d for _, _, d in ev.matches) < 0.3
     truth = sim.truth["reefs"]
@@ -259,8 +263,10 @@ def test_a_shifted_survey_gives_the_same_reefs_and_numbers(reef_small):
 
 
 def test_a_filter_that_removes_most_soundings_says_so_and_what_to_give(capsys, tmp_path):
-    """A 1 m gridded export: the 0.5 m radius filter would remove every sounding. The
-    message names the options and the radius that keeps 99 %; following it works."""
+    """A 1 m gridded export: the paper's fixed 0.5 m radius filter removes every sounding,
+    and the message names the options and the radius that keeps 99 %. By default the radius
+    grows with the spacing and keeps them; the run then stops because soundings 1 m apart
+    cannot resolve 1 m² objects, and says so."""
     from mbinspect.errors import DataError
 
     rng = np.random.default_rng(0)
@@ -268,12 +274,25 @@ def test_a_filter_that_removes_most_soundings_says_so_and_what_to_give(capsys, t
     pts = np.column_stack([np.repeat(g, 40), np.tile(g, 40), -25.0 + rng.normal(0, 0.02, 1600)])
     with pytest.raises(DataError, match=r"removed 100 % of the soundings \(`noise_radius` 0.5 m.*"
                                         r"`noise_radius` 1.4\d keeps 99 %"):
+        extract_reefs(pts, noise_spacing=0.0)
+    with pytest.raises(DataError, match=r"soundings lie 1.00 m apart .* too sparse to resolve objects"):
         extract_reefs(pts)
-    res = extract_reefs(pts, noise_radius=1.45)
-    assert len(res.reefs) == 0 and res.filters["radius"]["n_removed"] <= 0.01 * len(pts)
-    assert not any("radius filter" in w for w in res.warnings)
     path = tmp_path / "grid.xyz"
     np.savetxt(path, pts, fmt="%.3f")
-    assert main(["reefs", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert main(["reefs", str(path), "--out", str(tmp_path / "out"), "--noise-spacing", "0"]) == 2
     err = capsys.readouterr().err
     assert "--noise-radius 1.4" in err and "keeps 99 %" in err
+
+
+def test_a_half_metre_gridded_export_keeps_its_reefs():
+    """The issue's 0.5 m gridded export, wiped out by the fixed filter: every reef found."""
+    sim = simulate("reef-field", seed=2, per_group=9, close_pairs=0)
+    ij = np.floor(sim.cloud.xyz[:, :2] / 0.5).astype(np.int64)
+    cells, inv = np.unique(ij, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    z = np.bincount(inv, sim.cloud.xyz[:, 2]) / np.bincount(inv)
+    grid = np.column_stack([(cells + 0.5) * 0.5, z])
+    res = extract_reefs(grid, reference=_reference(sim))
+    ev = res.evaluation
+    assert ev is not None and (ev.tp, ev.fp, ev.fn) == (36, 0, 0)
+    assert res.filters["radius"]["n_removed"] <= 0.01 * len(grid)

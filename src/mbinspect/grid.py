@@ -10,7 +10,7 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow", "coverage",
-           "sounding_spacing"]
+           "sounding_spacing", "stray_soundings", "STRAY_SHARE"]
 
 
 def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
@@ -167,9 +167,68 @@ def coverage(points: np.ndarray, cell: float = 1.0) -> float:
     """
     i, j = cell_index(points, float(points[:, 0].min()), float(points[:, 1].min()), cell)
     nx, ny = int(i.max()) + 1, int(j.max()) + 1
-    seen = np.zeros(nx * ny, dtype=bool)
-    seen[i * ny + j] = True
-    return float(seen.sum() / max(len(seen), 1))
+    # counted over the occupied cells only: memory follows the soundings, not their extent
+    return float(len(np.unique(i.astype(np.int64) * ny + j)) / (float(nx) * float(ny)))
+
+
+#: Share of the soundings a spatially separate group may hold and still be set aside as stray.
+STRAY_SHARE = 0.05
+
+
+def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 4,
+                    share: float = STRAY_SHARE) -> np.ndarray:
+    """Soundings far from the rest of the survey: a navigation jump, a stray ping.
+
+    The soundings are binned into ``cell`` m plan cells (only the occupied ones are kept,
+    so memory follows the soundings, not their extent); occupied cells within
+    ``gap_cells`` cells of each other form one group. Groups holding under ``share`` of
+    the soundings, apart from the largest, are stray.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2 or 3)
+    cell : float
+        Cell size (m).
+    gap_cells : int
+        Groups closer than this many cells are one.
+    share : float
+        Largest share of the soundings a stray group may hold.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True for stray soundings.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> survey = rng.uniform(0, 100, (2000, 2))
+    >>> jump = survey[:5] + 5000.0                    # one ping's soundings 5 km away
+    >>> stray_soundings(np.vstack([survey, jump])).nonzero()[0].tolist()
+    [2000, 2001, 2002, 2003, 2004]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    xy = np.asarray(points, np.float64)[:, :2]
+    if len(xy) == 0:
+        return np.zeros(0, dtype=bool)
+    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
+    cells, inverse, counts = np.unique(ij, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    if len(cells) == 1:
+        return np.zeros(len(xy), dtype=bool)
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(cells.astype(np.float64)).query_pairs(gap_cells + 0.5, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cells), len(cells)))
+    n, group = connected_components(graph, directed=False)
+    if n == 1:
+        return np.zeros(len(xy), dtype=bool)
+    size = np.bincount(group, weights=counts, minlength=n)
+    stray_group = size < share * len(xy)
+    stray_group[np.argmax(size)] = False
+    return stray_group[group[inverse]]
 
 
 def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0, k: int = 1) -> float:

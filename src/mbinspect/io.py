@@ -339,8 +339,10 @@ def read(
 
 
 def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: int = 10
-                   ) -> tuple[PointCloud, np.ndarray]:
-    """A pipeline's input as a cloud and its checked ``(N, 3)`` points, cropped.
+                   ) -> tuple[PointCloud, np.ndarray, list[str]]:
+    """A pipeline's input as a cloud and its checked ``(N, 3)`` points, cropped, without
+    stray soundings far from the rest (:func:`mbinspect.grid.stray_soundings`: a navigation
+    jump would otherwise make every grid as large as the distance jumped).
 
     Parameters
     ----------
@@ -354,6 +356,8 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
     -------
     cloud : PointCloud
     points : ndarray, shape (N, 3)
+    notes : list of str
+        What was left out and why (stray soundings), for the result's warnings.
 
     Raises
     ------
@@ -364,13 +368,28 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
     """
     from .errors import DataError
     from .geometry import crop_mask
+    from .grid import stray_soundings
 
     cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
     if cloud.meta.get("z_doubt"):
         raise DataError(cloud.meta["z_doubt"])
     if crop is not None:
         cloud = cloud.subset(crop_mask(cloud.xyz, crop))
-    return cloud, check_points(cloud.xyz, minimum=minimum, name="points")
+    pts = check_points(cloud.xyz, minimum=minimum, name="points")
+    stray = stray_soundings(pts)
+    notes = []
+    if stray.any():
+        rest = pts[~stray, :2]
+        far = float(np.hypot(*(np.median(pts[stray, :2], axis=0) - np.median(rest, axis=0))))
+        pings = ""
+        if "ping" in cloud.fields:
+            p = cloud.fields["ping"][stray]
+            pings = f", pings {int(p.min())}–{int(p.max())}"
+        notes.append(f"{int(stray.sum()):,} soundings{pings} lie {far / 1000:.1f} km from the rest of the "
+                     "survey (a navigation jump?) and were left out")
+        cloud = cloud.subset(~stray)
+        pts = check_points(cloud.xyz, minimum=minimum, name="points")
+    return cloud, pts, notes
 
 
 def _looks_geographic(xyz: np.ndarray) -> bool:

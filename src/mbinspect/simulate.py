@@ -261,13 +261,24 @@ class Reef:
 
 @dataclass(frozen=True)
 class Boulder:
-    """A sphere partly buried in the seabed (a distractor)."""
+    """A rounded rock partly buried in the seabed (a distractor): a sphere of ``radius``, or
+    an ellipsoid of semi-axes ``radius`` (along ``bearing_deg``), ``ry`` and ``rz`` when
+    they are given. Lobes of one rock share its ``rock`` number (0: a rock of its own)."""
 
     x: float
     y: float
     z: float
     radius: float
     material: str = "rock"
+    ry: float = 0.0
+    rz: float = 0.0
+    bearing_deg: float = 0.0
+    rock: int = 0
+
+    @property
+    def axes(self) -> np.ndarray:
+        """Semi-axes (along the bearing, across it, vertical), m."""
+        return np.array([self.radius, self.ry or self.radius, self.rz or self.radius])
 
 
 @dataclass(frozen=True)
@@ -504,15 +515,31 @@ def _hit_box(box: Box, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 def _hit_sphere(b: Boulder, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    w = o - np.array([b.x, b.y, b.z])
-    bb = np.einsum("ij,ij->i", w, d)
-    cc = np.einsum("ij,ij->i", w, w) - b.radius**2
-    disc = bb * bb - cc
+    """First hit on an ellipsoid (a sphere when its axes agree): the ray is carried into the
+    frame where the ellipsoid is the unit sphere, which keeps the ray parameter ``t``."""
+    if not (b.ry or b.rz):
+        w = o - np.array([b.x, b.y, b.z])
+        bb = np.einsum("ij,ij->i", w, d)
+        disc = bb * bb - (np.einsum("ij,ij->i", w, w) - b.radius**2)
+        with np.errstate(invalid="ignore"):
+            t = -bb - np.sqrt(disc)
+        t = np.where((disc >= 0) & (t > 0), t, np.inf)
+        return t, (w + np.where(np.isfinite(t), t, 0.0)[:, None] * d) / b.radius
+    c, s = math.cos(math.radians(b.bearing_deg)), math.sin(math.radians(b.bearing_deg))
+    rot = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # world -> ellipsoid axes
+    ax = b.axes
+    w = ((o - np.array([b.x, b.y, b.z])) @ rot.T) / ax
+    v = (d @ rot.T) / ax
+    aa = np.einsum("ij,ij->i", v, v)
+    bb = np.einsum("ij,ij->i", w, v)
+    cc = np.einsum("ij,ij->i", w, w) - 1.0
+    disc = bb * bb - aa * cc
     with np.errstate(invalid="ignore"):
-        t = -bb - np.sqrt(disc)
+        t = (-bb - np.sqrt(disc)) / aa
     t = np.where((disc >= 0) & (t > 0), t, np.inf)
-    p = w + np.where(np.isfinite(t), t, 0.0)[:, None] * d
-    return t, p / b.radius
+    p = w + np.where(np.isfinite(t), t, 0.0)[:, None] * v
+    n = (p / ax) @ rot  # the gradient of |x / axes|^2, back in the world frame
+    return t, n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
 
 
 @dataclass(frozen=True)
@@ -541,9 +568,10 @@ def _targets(scene: Scene) -> list[_Target]:
         for box in reef.boxes:
             out.append(_box_target(box, LABELS["reef"], reef.id, reef.material))
     for i, b in enumerate(scene.boulders):
-        out.append(_Target(LABELS["boulder"], i + 1, b.material,
-                           (b.x - b.radius, b.x + b.radius, b.y - b.radius, b.y + b.radius),
-                           b.z + b.radius, _bind(_hit_sphere, b)))
+        reach = float(b.axes[:2].max())
+        out.append(_Target(LABELS["boulder"], b.rock or i + 1, b.material,
+                           (b.x - reach, b.x + reach, b.y - reach, b.y + reach),
+                           b.z + float(b.axes[2]), _bind(_hit_sphere, b)))
     for i, box in enumerate(scene.debris):
         out.append(_box_target(box, LABELS["debris"], i + 1, "steel"))
     return out
@@ -961,6 +989,8 @@ class ReefFieldOptions:
     close_pairs: int = 6  #: pairs moved to 0.3-0.9 m apart
     touching_pairs: int = 0  #: pairs moved until they touch
     boulders: int = 8  #: distractor boulders (r 0.25-0.5 m)
+    rocks: int = 0  #: rounded rocks of reef size (1.2-2.6 m across, 0.4-1.5 m proud, some two-lobed)
+    burial_max: float = 0.0  #: reefs sunk a further 0 to this many m into the seabed
     debris: int = 4  #: distractor debris items (< 1 m^2)
     shore_width: float = 0.0  #: a steep rocky shore rising over this width north of the reefs (0 = none)
     line_spacing: float = 22.0  #: spacing of the parallel survey lines
@@ -1130,8 +1160,10 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
     side = int(math.ceil(math.sqrt(opt.per_group)))
     reefs: list[Reef] = []
 
+    sunk = rng.uniform(0.0, opt.burial_max, 10_000) if opt.burial_max > 0 else np.zeros(10_000)
+
     def make(rid: int, kind: str, x: float, y: float, b: float, g: int) -> Reef:
-        z = float(seabed.elevation(x, y)) - 0.1
+        z = float(seabed.elevation(x, y)) - 0.1 - float(sunk[rid % len(sunk)])
         return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, opt.reef_scale), group=g)
 
     for g, kind in enumerate(kinds):
@@ -1209,6 +1241,7 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
                 debris.append(Box(p[0], p[1], z - 0.05, rng.uniform(0.5, 1.2),
                                   rng.uniform(0.3, 0.6), rng.uniform(0.2, 0.5),
                                   rng.uniform(0, 180)))
+    boulders += _rocks(opt.rocks, rng, seabed, lo, hi, xy, first=len(boulders) + 1)
     lines = []
     y0, y1 = lo[1] - 10, survey_hi[1] + 10
     n_lines = int(math.ceil((y1 - y0) / opt.line_spacing)) + 1
@@ -1219,6 +1252,35 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
     scene = Scene(seabed, reefs=tuple(reefs), boulders=tuple(boulders), debris=tuple(debris),
                   origin=(opt.origin_x, opt.origin_y))
     return scene, Survey(tuple(lines), sonar), {}
+
+
+def _rocks(n: int, rng: np.random.Generator, seabed: Seabed, lo: np.ndarray, hi: np.ndarray,
+           reefs_xy: np.ndarray, first: int) -> list[Boulder]:
+    """``n`` rounded rocks of reef size, each an ellipsoid sunk so that 0.4-1.5 m shows, a
+    third of them with a second, smaller lobe (numbered ``first``, ``first + 1``, ...)."""
+    if n == 0:
+        return []
+    rng = np.random.default_rng(rng.integers(2**63))  # its own stream: other scenes stay as they were
+    out: list[Boulder] = []
+    for k in range(n):
+        for _ in range(500):
+            p = rng.uniform(lo, hi)
+            if np.min(np.hypot(*(reefs_xy - p).T)) > 4.5 and all(
+                    math.hypot(b.x - p[0], b.y - p[1]) > 4.0 for b in out):
+                break
+        a = rng.uniform(0.6, 1.3)
+        proud = rng.uniform(0.4, 1.5)
+        rz = proud / rng.uniform(0.6, 0.9)
+        bearing = rng.uniform(0, 180)
+        z = float(seabed.elevation(p[0], p[1])) + proud - rz
+        out.append(Boulder(p[0], p[1], z, a, ry=a * rng.uniform(0.6, 1.0), rz=rz, bearing_deg=bearing,
+                           rock=first + k))
+        if rng.random() < 1 / 3:
+            u = bearing_to_vector(bearing) * a * rng.uniform(0.7, 1.0)
+            s = rng.uniform(0.6, 0.8)
+            out.append(Boulder(p[0] + u[0], p[1] + u[1], z - rz * (1 - s) * 0.5, a * s, ry=a * s * 0.8,
+                               rz=rz * s, bearing_deg=bearing + rng.uniform(-40, 40), rock=first + k))
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -1438,7 +1500,8 @@ def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels:
                 close.append({"a": a.id, "b": b.id, "gap": gap})
     distractors = (
         [{"kind": "boulder", "x": b.x + ox, "y": b.y + oy, "z_top": b.z + b.radius,
-          "radius": b.radius} for b in scene.boulders]
+          "radius": b.radius} for b in scene.boulders if not b.rock]
+        + _rock_truth(scene)
         + [{"kind": "debris", "x": d.cx + ox, "y": d.cy + oy, "z_top": d.z0 + d.height,
             "length": d.length, "width": d.width} for d in scene.debris]
     )
@@ -1451,6 +1514,21 @@ def _truth(preset: str, seed: int, opt: Any, sonar: Sonar, scene: Scene, labels:
         "piles": piles, "spacings": spacings, **extra,
         "reefs": reefs, "groups": groups, "close_pairs": close, "distractors": distractors,
     }
+
+
+def _rock_truth(scene: Scene) -> list[dict[str, Any]]:
+    """One record per rock (its lobes together): centre of its lobes, top, plan size, proud height."""
+    ox, oy = scene.origin
+    out = []
+    for rid in sorted({b.rock for b in scene.boulders if b.rock}):
+        lobes = [b for b in scene.boulders if b.rock == rid]
+        top = max(b.z + float(b.axes[2]) for b in lobes)
+        main = lobes[0]
+        out.append({"kind": "rock", "id": rid, "x": main.x + ox, "y": main.y + oy, "z_top": top,
+                    "height": top - float(scene.seabed.elevation(main.x, main.y)),
+                    "size": 2 * max(float(b.axes[:2].max()) + math.hypot(b.x - main.x, b.y - main.y)
+                                    for b in lobes), "lobes": len(lobes)})
+    return out
 
 
 def option_fields(preset: str) -> list[dataclasses.Field[Any]]:

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError
+from ..grid import sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from .accept import rejected_record, rejection_reasons
@@ -76,7 +77,14 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     True
     """
     opts = PileOptions(**overrides) if options is None else options.replace(**overrides)
-    cloud, pts = pipeline_input(data, crop=opts.crop)
+    cloud, pts, notes = pipeline_input(data, crop=opts.crop)
+    spacing = sounding_spacing(pts, seed=opts.seed)
+    if spacing > opts.radius:
+        # no pile of this radius can hold enough soundings; the seabed grids would also
+        # grow with the extent of so sparse a survey rather than with its soundings
+        raise DataError(f"the soundings lie {spacing:.2f} m apart (median plan distance to the nearest): "
+                        f"too sparse to measure piles of `radius` {opts.radius:g} m, which need soundings "
+                        f"under {opts.radius:g} m apart")
     intensity = cloud.fields.get("intensity") if opts.use_intensity else None
     ping = cloud.fields.get("ping")
     report = progress or (lambda f: None)
@@ -87,7 +95,8 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
         raise DataError(f"no points stand more than {opts.min_height} m above the seabed; no pile to "
                         "measure (check the min_height option and the crop)")
     eidx = np.flatnonzero(elevated)
-    labels, warnings = separate_piles(pts[eidx], count=opts.count, radius=opts.radius, seed=opts.seed)
+    labels, found = separate_piles(pts[eidx], count=opts.count, radius=opts.radius, seed=opts.seed)
+    warnings = notes + found
     if not (labels >= 0).any():
         raise DataError("no pile found among the points above the seabed")
     report(0.3)

@@ -15,24 +15,34 @@ from .ground import Seabed
 __all__ = ["radius_keeping", "denoise", "reef_points", "clean_reef_points"]
 
 
-def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
+def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3, spacing_factor: float = 0.0
             ) -> tuple[np.ndarray, FilterReport]:
-    """The paper's radius filter: noise if ``<= min_neighbors`` neighbours within ``radius`` m.
+    """The paper's radius filter: noise if ``<= min_neighbors`` neighbours within ``radius`` m,
+    the radius growing with the local sounding spacing when ``spacing_factor`` > 0.
+
+    With ``spacing_factor`` f, a sounding the fixed filter would remove is kept when its
+    ``min_neighbors + 1``-th nearest other sounding lies within ``f`` local spacings, the
+    spacing measured in plan from its 16 nearest soundings (``d16 √(π/16)``: the side of
+    the square each would cover if they filled the disc evenly). A spike above or below a
+    dense seabed has dense soundings around it in plan, so its radius stays small; on a deep
+    or sparse line every sounding's radius grows with the line's own spacing.
 
     Parameters
     ----------
     points : ndarray, shape (N, 3)
         Soundings (m).
     radius : float
-        r (m).
+        r (m): the radius, and its floor when it grows.
     min_neighbors : int
         n.
+    spacing_factor : float
+        f (0: the paper's fixed radius).
 
     Returns
     -------
     keep : ndarray of bool, shape (N,)
     report : FilterReport
-        How many were seen and removed.
+        How many were seen and removed (and how many the growing radius kept).
 
     Examples
     --------
@@ -40,10 +50,41 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3
     >>> keep, report = denoise(pts)
     >>> keep.tolist(), report.n_removed
     ([True, True, True, True, True, False], 1)
+    >>> g = np.arange(0.0, 40.0, 2.0)  # a 2 m grid: the fixed 0.5 m filter removes it all
+    >>> grid = np.column_stack([np.repeat(g, 20), np.tile(g, 20), np.zeros(400)])
+    >>> int(denoise(grid)[0].sum()), int(denoise(grid, spacing_factor=3)[0].sum())
+    (0, 400)
     """
     keep = radius_outlier(points, radius=radius, min_neighbors=min_neighbors)
-    return keep, FilterReport("radius", len(keep), int((~keep).sum()),
-                              {"radius": radius, "min_neighbors": min_neighbors})
+    params: dict[str, float] = {"radius": radius, "min_neighbors": min_neighbors}
+    if spacing_factor > 0 and not keep.all():
+        pts = np.asarray(points, np.float64)
+        rescued = _spacing_rescue(pts, ~keep, radius, min_neighbors, spacing_factor)
+        keep |= rescued
+        params.update(spacing_factor=spacing_factor, kept_by_spacing=int(rescued.sum()))
+    return keep, FilterReport("radius", len(keep), int((~keep).sum()), params)
+
+
+def _spacing_rescue(pts: np.ndarray, candidates: np.ndarray, radius: float, min_neighbors: int,
+                    factor: float, chunk: int = 200_000) -> np.ndarray:
+    """Which ``candidates`` have their ``min_neighbors + 1``-th neighbour within ``factor``
+    local plan spacings (see :func:`denoise`), in chunks so memory follows the chunk."""
+    local = pts - pts.mean(axis=0)
+    rows = np.flatnonzero(candidates)
+    out = np.zeros(len(pts), dtype=bool)
+    k = min_neighbors + 1
+    if len(pts) < k + 1:
+        return out
+    tree3 = cKDTree(local)
+    tree2 = cKDTree(local[:, :2])
+    kp = min(16, len(pts) - 1)
+    for start in range(0, len(rows), chunk):
+        r = rows[start:start + chunk]
+        dk = tree3.query(local[r], k=k + 1)[0][:, k]
+        d16 = tree2.query(local[r, :2], k=kp + 1)[0][:, kp]
+        spacing = d16 * math.sqrt(math.pi / kp)
+        out[r] = dk <= np.maximum(radius, factor * spacing)
+    return out
 
 
 def radius_keeping(points: np.ndarray, min_neighbors: int, share: float = 0.99, *, sample: int = 50_000,

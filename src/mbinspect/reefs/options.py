@@ -51,6 +51,13 @@ class ReefOptions(Options):
     noise_radius: float = option(0.5, unit="m", help="the paper's radius filter r", check="positive")
     noise_neighbors: int = option(3, help="radius filter: noise if at most this many neighbours",
                                   check="whole", metavar="N")
+    noise_spacing: float = option(3.0, help="the radius filter's radius grows to this many local sounding "
+                                  "spacings where soundings lie farther apart (deep or sparse lines; 0: the "
+                                  "fixed noise_radius; the paper's method keeps it fixed)",
+                                  check="non_negative", metavar="F")
+    beam_width_deg: float = option(1.0, unit="deg", help="the sonar's beam width: a run stops when the "
+                                   "footprint at the survey's depth is wider than objects of min_area",
+                                   check="angle")
     statistical_k: int = option(8, help="statistical filter neighbours on the reef points (0: off)",
                                 check="whole", metavar="K")
     statistical_ratio: float = option(3.0, help="statistical filter: standard deviations kept",
@@ -74,6 +81,18 @@ class ReefOptions(Options):
                          "its design", check=_designs, kind=str, metavar="NAMES")
     min_area: float = option(1.0, unit="m²", help="smaller objects are not reefs", check="positive",
                              metavar="M2")
+    max_elongation: float = option(2.5, help="reefs are compact: a footprint longer than this many times "
+                                   "its width is a ridge (a sand-wave crest, a pipe) and is listed among the "
+                                   "others (0: off)", check="non_negative", metavar="RATIO")
+    design_misfit_max: float = option(0.1, help="with designs: a candidate whose best design leaves more "
+                                      "than this share of its edge soundings on the wrong side is not a reef",
+                                      check="fraction", metavar="SHARE")
+    design_scale_tolerance: float = option(0.15, help="with designs: reefs are built within this fraction of "
+                                           "their design's size; a rounded rock fits one only much smaller",
+                                           check="fraction", metavar="SHARE")
+    min_pings: int = option(3, help="a reef's soundings must come from at least this many pings (where the "
+                            "input has pings): one ping's streak across a ripple crest has no plan shape",
+                            check="count", metavar="N")
     group_link: float = option(12.0, unit="m", help="reefs closer than this (chained) form a group",
                                check="positive")
     cluster_eps: float = option(0.5, unit="m", help="the paper's Euclidean clustering distance "

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError, ParameterError
+from ..grid import sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
@@ -27,6 +28,10 @@ from .terrain import screen_terrain
 __all__ = ["extract_reefs", "single_reefs"]
 
 
+#: Least share of its design's height a reef fitted by that design shows above the seabed
+#: (a cross of 1.2 m sunk 0.6 m still shows half).
+LOWEST_SHARE = 0.4
+
 #: Share of the soundings the radius filter may remove before the run says so.
 FILTER_LOSS_WARNING = 0.05
 
@@ -40,6 +45,28 @@ def _filter_loss(pts: np.ndarray, removed: int, opts: ReefOptions) -> str | None
     return (f"the radius filter removed {100 * removed / len(pts):.0f} % of the soundings (`noise_radius` "
             f"{opts.noise_radius:g} m, `noise_neighbors` {opts.noise_neighbors}): they lie farther apart "
             f"than it expects; `noise_radius` {r99:.2f} keeps 99 % of them")
+
+
+def _check_resolution(pts: np.ndarray, opts: ReefOptions, filter_note: str | None) -> None:
+    """Stop when the soundings lie too far apart to resolve an object of ``min_area``: the
+    footprint rasters and seabed grids would measure the gaps between soundings (and grow
+    with a deep survey's extent) rather than any reef."""
+    if len(pts) < 10:
+        raise DataError("fewer than 10 soundings left after filtering; nothing to extract"
+                        + (f": {filter_note}" if filter_note else ""))
+    spacing = sounding_spacing(pts, seed=opts.seed)
+    most = math.sqrt(opts.min_area)
+    if spacing > most / 2:
+        raise DataError(f"the soundings lie {spacing:.2f} m apart (median plan distance to the nearest): "
+                        f"too sparse to resolve objects of `min_area` {opts.min_area:g} m², which need "
+                        f"soundings under {most / 2:.2f} m apart; no reef can be reported from these data")
+    depth = -float(np.median(pts[:, 2]))
+    footprint = 2 * depth * math.tan(math.radians(opts.beam_width_deg) / 2)
+    if footprint > most:
+        raise DataError(f"a {opts.beam_width_deg:g}° beam (`beam_width_deg`) at {depth:.0f} m lights a "
+                        f"{footprint:.1f} m footprint: too coarse to resolve objects of `min_area` "
+                        f"{opts.min_area:g} m², which need a footprint under {most:.2f} m; no reef can be "
+                        "reported from these data")
 
 
 def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = None, *,
@@ -85,20 +112,25 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     25
     """
     opts = ReefOptions(**overrides) if options is None else options.replace(**overrides)
-    cloud, pts = pipeline_input(data, crop=opts.crop)
+    cloud, pts, notes = pipeline_input(data, crop=opts.crop)
     report = progress or (lambda f: None)
     local = opts.method == "local"
-    keep, rep = denoise(pts, radius=opts.noise_radius, min_neighbors=opts.noise_neighbors)
+    keep, rep = denoise(pts, radius=opts.noise_radius, min_neighbors=opts.noise_neighbors,
+                        spacing_factor=opts.noise_spacing if local else 0.0)
     filters: dict[str, Any] = {"radius": rep.to_dict()}
     filter_note = _filter_loss(pts, rep.n_removed, opts)
     report(0.25)
+    _check_resolution(pts[keep], opts, filter_note)
     ground = screen_terrain(pts[keep], local=local, seabed=opts.seabed, exclude_rough=opts.exclude_rough,
                             max_slope_deg=opts.max_slope_deg, max_roughness=opts.max_roughness,
                             seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window)
-    warnings = ([filter_note] if filter_note else []) + list(ground.warnings)
+    warnings = notes + ([filter_note] if filter_note else []) + list(ground.warnings)
     if ground.report is not None:
         filters["rough_terrain"] = ground.report
     kept = ground.points
+    ping = cloud.fields.get("ping")
+    if ping is not None:
+        ping = ping[keep] if ground.kept is None else ping[keep][ground.kept]
     if len(kept) < 10:
         raise DataError("fewer than 10 soundings left after filtering; nothing to extract"
                         + (f": {filter_note}" if filter_note else ""))
@@ -129,7 +161,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     others: list[dict[str, Any]] = []
     used_area = None
     if is_reef.any() and local:
-        reefs, others, used_area = single_reefs(kept, is_reef, surf, h_all, opts)
+        reefs, others, used_area = single_reefs(kept, is_reef, surf, h_all, opts, ping=ping)
     elif is_reef.any():
         reefs, others = paper_clusters(kept, is_reef, surf, eps=opts.cluster_eps, min_area=opts.min_area)
         used_area = math.nan
@@ -151,7 +183,8 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
 
 
 def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
-                 options: ReefOptions) -> tuple[list[Reef], list[dict[str, Any]], float]:
+                 options: ReefOptions, ping: np.ndarray | None = None
+                 ) -> tuple[list[Reef], list[dict[str, Any]], float]:
     """The single reefs among the reef points, each measured (our method).
 
     Footprints split into single reefs (:func:`split_reefs`), each measured
@@ -167,6 +200,9 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     height : ndarray, shape (N,)
         Heights above ``seabed`` (m).
     options : ReefOptions
+    ping : ndarray of int, shape (N,), optional
+        Each sounding's ping: a reef seen by fewer than ``options.min_pings`` pings is
+        listed among the others with the reason.
 
     Examples
     --------
@@ -209,5 +245,53 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     for p in small:
         o = measure_reef(points, p, raster, seabed, is_reef=is_reef)
         others.append({"x": o.x, "y": o.y, "height": o.height, "area": o.area, "z_top": o.z_top,
-                       "n_points": o.n_points})
-    return reefs, others, used_area
+                       "n_points": o.n_points, "reason": f"smaller than `min_area` {options.min_area:g} m²"})
+    kept = []
+    for r, p in zip(reefs, parts, strict=True):
+        why = _not_a_reef(r, p, raster, is_reef, ping, options)
+        if why:
+            others.append({"x": r.x, "y": r.y, "height": r.height, "area": r.area, "z_top": r.z_top,
+                           "n_points": r.n_points, "reason": why})
+        else:
+            kept.append(r)
+    return kept, others, used_area
+
+
+def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Any, is_reef: np.ndarray, ping: np.ndarray | None,
+                options: ReefOptions) -> str | None:
+    """Why a measured footprint is not a reef, or None: a ridge, far lower than the design
+    fitted to it, or seen by too few pings."""
+    elongation = reef.length / max(reef.width, 1e-9)
+    if options.max_elongation and elongation > options.max_elongation:
+        return (f"elongated ({reef.length:.1f} × {reef.width:.1f} m, {elongation:.1f} times longer than "
+                f"wide; `max_elongation` {options.max_elongation:g}): a ridge such as a sand-wave crest, "
+                "not a compact reef")
+    if options.designs and not reef.design:
+        return "no design fits its plan: a rock or other object, not a reef of the designs given"
+    design = next((d for d in options.designs if d.name == reef.design), None)
+    if design is not None:
+        if abs(reef.design_scale - 1) > options.design_scale_tolerance:
+            return (f"fits the {design.name} design only at {reef.design_scale:.2f} of its size "
+                    f"(`design_scale_tolerance` {options.design_scale_tolerance:g}): a rock or other object")
+        if reef.design_misfit > options.design_misfit_max:
+            return (f"fits the {design.name} design poorly ({reef.design_misfit:.0%} of its edge soundings "
+                    f"on the wrong side; `design_misfit_max` {options.design_misfit_max:g})")
+        scale = reef.design_scale if reef.design_scale > 0 else 1.0
+        tall = max(b.dz + b.height for b in design.boxes) * scale
+        if reef.height < LOWEST_SHARE * tall:
+            return (f"{reef.height:.2f} m high where the {design.name} design fitted to its plan is "
+                    f"{tall:.2f} m: not that design even if sunk (a reef shows at least "
+                    f"{LOWEST_SHARE:.0%} of its height)")
+    if ping is not None:
+        n = _pings(cells, raster, is_reef, ping)
+        if n < options.min_pings:
+            return (f"seen by {n} ping{'s' * (n != 1)} (`min_pings` {options.min_pings}): "
+                    "its plan shape is unknown")
+    return None
+
+
+def _pings(cells: np.ndarray, raster: Any, is_reef: np.ndarray, ping: np.ndarray) -> int:
+    """How many pings the reef soundings behind a footprint's cells come from."""
+    idx = raster.nearest.ravel()[cells]
+    idx = idx[idx >= 0]
+    return int(len(np.unique(ping[idx[is_reef[idx]]])))

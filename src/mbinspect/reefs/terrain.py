@@ -163,6 +163,7 @@ class Ground:
     coverage: float
     report: dict[str, Any] | None
     warnings: tuple[str, ...]
+    kept: np.ndarray | None = None  # which input points ``points`` holds (None: all)
 
 
 def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_rough: bool,
@@ -207,13 +208,13 @@ def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_roug
     if local and seabed in ("auto", "grid") and len(points) >= 3:
         grid = grid_seabed(points, cell=seabed_cell, window=seabed_window)
         height = grid.height_above(points)
-    kept, region, report = points, None, None
+    kept, region, report, mask = points, None, None, None
     if exclude_rough and local:
         region = rough_terrain(points, max_slope_deg=max_slope_deg, max_roughness=max_roughness,
                                surface=grid, height=height)
         out = region.contains(points)
         report = {"n_removed": int(out.sum()), **region.to_dict()}
         if out.any():
-            kept = points[~out]
+            kept, mask = points[~out], ~out
             height = height[~out] if height is not None else None
-    return Ground(kept, height, grid, region, cover, report, tuple(warnings))
+    return Ground(kept, height, grid, region, cover, report, tuple(warnings), mask)

@@ -1,0 +1,78 @@
+"""Reefs on real seabeds (issue 13): deep and sparse lines, navigation jumps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mbinspect.errors import DataError
+from mbinspect.inject import InjectedReef, inject
+from mbinspect.io import PointCloud, read
+from mbinspect.reefs import denoise, extract_reefs
+
+DATA = Path(__file__).parent / "data"
+
+
+def test_deep_sparse_line_keeps_its_soundings_and_stops_with_the_reason():
+    """The EM710 line at 109 m (soundings 0.4 m apart): the paper's fixed 0.5 m radius filter
+    deleted 94 % of it; the radius grown with the local spacing keeps 99 % or more, and the
+    run then stops because a 1° beam lights a 1.9 m footprint there, too coarse for reefs."""
+    cloud = read(DATA / "ets_all_he_-3092155654265012286.all")
+    fixed, _ = denoise(cloud.xyz, radius=0.5)
+    grown, rep = denoise(cloud.xyz, radius=0.5, spacing_factor=3.0)
+    assert fixed.mean() < 0.2 and grown.mean() >= 0.99
+    assert rep.parameters["kept_by_spacing"] == int(grown.sum() - fixed.sum())
+    with pytest.raises(DataError, match=r"1° beam .* at 109 m lights a 1\.9 m footprint"):
+        extract_reefs(cloud)
+    # a narrower beam, as a user who knows the sonar can say, lets the run go on
+    res = extract_reefs(cloud, beam_width_deg=0.5)
+    assert res.filters["radius"]["n_removed"] <= 0.01 * len(cloud)
+
+
+def test_a_spike_above_a_dense_seabed_is_still_noise():
+    rng = np.random.default_rng(0)
+    g = np.arange(0.0, 20.0, 0.2)
+    seabed = np.column_stack([np.repeat(g, len(g)), np.tile(g, len(g)), rng.normal(-20, 0.02, len(g) ** 2)])
+    spikes = np.array([[10.05, 10.05, -15.0], [5.05, 5.05, -24.0]])
+    keep, _ = denoise(np.vstack([seabed, spikes]), radius=0.5, spacing_factor=3.0)
+    assert keep[:-2].all() and not keep[-2:].any()
+
+
+def test_a_navigation_jump_is_set_aside_and_changes_nothing():
+    """One ping displaced 5 km (a navigation jump) made every grid 5 km wide; now its
+    soundings are left out with a note and the answer is the one without it."""
+    cloud = read(DATA / "pdal_mbf_em300raw.mb56")
+    cx, cy = cloud.xyz[:, :2].mean(axis=0)
+    reefs = [InjectedReef(1, cx - 3.0, cy, "cross1", bearing_deg=20),
+             InjectedReef(2, cx + 2.5, cy, "hollow", bearing_deg=50, scale=0.8)]
+    inj = inject(cloud.xyz, cloud.fields, reefs=reefs)
+    xyz = inj.xyz.copy()
+    ping = cloud.fields["ping"]
+    jumped = ping == ping.min() + 3
+    xyz[jumped, 0] += 5000.0
+    plain = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields)))
+    jump = extract_reefs(PointCloud(xyz, dict(cloud.fields)))
+    assert len(jump.reefs) == len(plain.reefs) == 2
+    note = [w for w in jump.warnings if "navigation jump" in w]
+    assert note and f"{int(jumped.sum()):,} soundings" in note[0] and "5.0 km" in note[0]
+    for a, b in zip(plain.reefs, jump.reefs, strict=True):
+        assert abs(a.x - b.x) < 0.05 and abs(a.height - b.height) < 0.02
+
+
+def test_sand_wave_crests_are_not_reefs():
+    """The EM2040 line over 0.7 m megaripples and a 2 m sand wave: two crests looked like
+    reefs (4.9 x 0.5 m and 4.7 x 1.3 m, 0.3-0.4 m high); they are ridges, listed with the reason."""
+    cloud = read(DATA / "ets_all_turbeams_9142459809945665151.all")
+    res = extract_reefs(cloud)
+    assert not res.reefs
+    ridges = [o for o in res.others if o["reason"].startswith("elongated")]
+    assert len(ridges) == 2 and all("sand-wave crest" in o["reason"] for o in ridges)
+    assert res.filters["radius"]["n_removed"] <= 0.01 * len(cloud)
+    # without the test, the crests come back as reefs: the case is real
+    assert len(extract_reefs(cloud, max_elongation=0).reefs) == 2
+    # given designs, the 4.9 m crest fits one wall of a hollow square in plan, but it stands
+    # 0.4 m high where that design stands 1.5 m or more: not a reef either
+    designed = extract_reefs(cloud, design="cross1,cross2,hollow,triangle")
+    assert not designed.reefs and any("hollow design" in o["reason"] for o in designed.others)
