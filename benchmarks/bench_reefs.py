@@ -60,13 +60,16 @@ def memory_run(path: str) -> None:
     res = extract_reefs(cloud)
     dt = time.perf_counter() - t
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # KiB -> GiB
-    print(json.dumps({"points": len(cloud), "reefs": len(res.reefs), "seconds": dt, "peak_gib": peak}))
+    worker = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 2**20  # the ASCII parsers
+    print(json.dumps({"points": len(cloud), "reefs": len(res.reefs), "seconds": dt, "peak_gib": peak,
+                      "worker_gib": worker}))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--sizes", default="0.3,3")
     ap.add_argument("--memory-10m", action="store_true")
+    ap.add_argument("--memory-formats", default="npz,xyz", help="file formats the 10 M run reads")
     ap.add_argument("--repeat", type=int, default=2)
     args = ap.parse_args()
     rows = []
@@ -104,16 +107,23 @@ def main() -> None:
     print(table(["radius filter", "ours s", "removed", "Open3D s", "removed", "Open3D / ours"],
                 filter_rows))
     if args.memory_10m:
+        mem_rows = []
         with tempfile.TemporaryDirectory() as d:
             sim = simulate("reef-field", seed=0, ping_spacing=SPACING[10.0])
-            path = Path(d) / "ten.npz"
-            write(sim.cloud, path)
+            paths = []
+            for fmt in args.memory_formats.split(","):
+                paths.append(Path(d) / f"ten.{fmt}")
+                write(sim.cloud, paths[-1])
             del sim
-            out = subprocess.run([sys.executable, __file__, "--_memory", str(path)],
-                                 capture_output=True, text=True, check=True)
-            m = json.loads(out.stdout.strip().splitlines()[-1])
-            print(table(["10 M run", "points", "reefs", "seconds", "peak memory GiB"],
-                        [["read + extract", f"{m['points']:,}", m["reefs"], m["seconds"], m["peak_gib"]]]))
+            for path in paths:
+                out = subprocess.run([sys.executable, __file__, "--_memory", str(path)],
+                                     capture_output=True, text=True, check=True)
+                m = json.loads(out.stdout.strip().splitlines()[-1])
+                mem_rows.append([f"read {path.suffix} ({path.stat().st_size / 2**20:,.0f} MiB) + extract",
+                                 f"{m['points']:,}", m["reefs"], f"{m['seconds']:.1f}",
+                                 f"{m['peak_gib']:.2f}", f"{m['worker_gib']:.2f}"])
+        print(table(["10 M run", "points", "reefs", "seconds", "peak memory GiB", "largest worker GiB"],
+                    mem_rows))
 
 
 if __name__ == "__main__":

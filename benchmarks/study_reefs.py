@@ -36,6 +36,11 @@ CONFIGS: dict[str, dict] = {
     "rough-shore": {"shore_width": 30.0},
     "dense-pings": {"ping_spacing": 0.2},
     "as-built+8%": {"reef_scale": 1.08},
+    # issue 13: 20 rounded rocks of reef size among 75 reefs at 25 m, reefs sunk 0-0.5 m
+    "rocky": {"groups": "cross2,hollow,triangle", "seabed": -25.0, "rocks": 20, "burial_max": 0.5},
+    "buried": {"burial_max": 0.6},
+    "sand-waves-2m": {"sand_wave_amplitude": 1.0, "sand_wave_length": 40.0},
+    "strips+-5cm": {"line_offset_sigma": 0.05, "refraction_sigma_deg": 0.05},
 }
 METHODS = (("local", None), ("local", "design"), ("paper", None))
 NAMES = {("local", None): "ours", ("local", "design"): "ours + design", ("paper", None): "paper"}

@@ -75,8 +75,9 @@ def test_injected_piles_carry_the_surveys_noise_and_shadows():
 
 def test_inject_refuses_what_it_cannot_do():
     cloud = read(SURVEY)
-    with pytest.raises(InputError, match="no ping or beam_angle"):
-        inject(cloud.xyz, {}, piles=_piles(cloud))
+    shuffled = cloud.xyz[np.random.default_rng(0).permutation(len(cloud))]
+    with pytest.raises(InputError, match="order shows no pings"):
+        inject(shuffled, {}, piles=_piles(cloud))
     cx, cy = cloud.xyz[:, :2].mean(axis=0)
     with pytest.raises(InputError, match="overlap"):
         inject(cloud.xyz, cloud.fields, piles=[InjectedPile(1, cx, cy, 0.5, height=1),
@@ -158,3 +159,19 @@ def test_inject_reefs_command(tmp_path, capsys):
     assert "bad.csv: line 2, column kind: 'pyramid'; expected one of cross1" in capsys.readouterr().err
     assert main(["inject", str(SURVEY), "--out", str(tmp_path / "c")]) == 2
     assert "give --piles or --reefs" in capsys.readouterr().err
+
+
+def test_inject_into_an_export_without_pings_estimates_them():
+    """An XYZ export keeps the soundings in ping order but not the ping or the beam angle:
+    the pings are found again from the order, the angles follow the real ones (this EM3000
+    swath is lopsided, -70 to +15 deg, so the assumed middle of the swath misplaces its
+    nadir), and the injection runs with a warning that says what was assumed."""
+    from mbinspect.inject import estimate_pings
+
+    cloud = read(SURVEY)
+    ping, angle = estimate_pings(cloud.xyz)
+    assert ping.max() + 1 == len(np.unique(cloud.fields["ping"]))
+    assert np.corrcoef(angle, cloud.fields["beam_angle"])[0, 1] > 0.8
+    bare = inject(cloud.xyz, {}, piles=_piles(cloud))
+    assert bare.truth["warnings"] and "taken from the soundings' order" in bare.truth["warnings"][0]
+    assert min(bare.truth["counts"]["per_pile"].values()) > 50

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -296,3 +297,22 @@ def test_a_half_metre_gridded_export_keeps_its_reefs():
     ev = res.evaluation
     assert ev is not None and (ev.tp, ev.fp, ev.fn) == (36, 0, 0)
     assert res.filters["radius"]["n_removed"] <= 0.01 * len(grid)
+
+
+def test_rocks_of_reef_size_are_not_reefs_given_the_designs():
+    """Rounded rocks (ellipsoids, some two-lobed, 1.2-2.6 m across) among crosses and hollow
+    squares: without designs five pass for reefs; with them every rock is listed among the
+    others with the reason (a design fits it only far smaller than built), and no reef is lost."""
+    sim = simulate("reef-field", seed=3, groups="cross1,hollow", per_group=4, rocks=6, close_pairs=0,
+                   boulders=0, debris=0)
+    rocks = [d for d in sim.truth["distractors"] if d["kind"] == "rock"]
+    assert len(rocks) == 6 and sim.truth["counts"]["boulder"] > 200
+    free = extract_reefs(sim.cloud, reference=_reference(sim)).evaluation
+    assert free is not None and free.fp >= 3  # the case is real
+    res = extract_reefs(sim.cloud, reference=_reference(sim), design="cross1,hollow")
+    ev = res.evaluation
+    assert ev is not None and (ev.tp, ev.fp, ev.fn) == (8, 0, 0)
+    for rock in rocks:
+        near = [o for o in res.others if math.hypot(o["x"] - rock["x"], o["y"] - rock["y"]) < 1.0]
+        assert near and all(o["reason"] for o in near)
+    assert sum("design only at" in o["reason"] for o in res.others) >= 3

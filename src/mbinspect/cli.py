@@ -347,6 +347,8 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
     what = " and ".join(f"{len(v)} {k}" for k, v in (("piles", piles), ("reefs", reefs)) if v)
     rep.info(f"{what} injected into {len(cloud):,} soundings "
              f"({', '.join(hits)}); written to {out}/soundings.npz with truth.json and {written}")
+    for note in inj.truth["warnings"]:
+        print(f"mbinspect: warning: {note}", file=sys.stderr)
     if counts["without_ping_geometry"]:
         print(f"mbinspect: warning: {counts['without_ping_geometry']:,} soundings of pings too short to "
               "place their transducer were left as they were", file=sys.stderr)
@@ -557,8 +559,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = _sub(sub, "inject", "put known piles and reefs into a real survey (its own noise and shadows)",
              "Put piles and reefs of known position into a real survey: every sounding whose beam meets "
              "an object is moved to the hit point and then along its beam by its own seabed residual, so "
-             "the objects carry the survey's real noise and cast its real shadows. Needs the ping and "
-             "beam angle of each sounding (GSF, KMALL, .all, or an .npz that keeps them). Writes "
+             "the objects carry the survey's real noise and cast its real shadows. Uses the ping and "
+             "beam angle of each sounding (GSF, KMALL, .all, or an .npz that keeps them); for an XYZ or "
+             "LAS export without them, estimates them from the soundings' order, with a warning. Writes "
              "soundings.npz, truth.json (as simulate writes it), labels.npz, and design.csv (piles) "
              "or reference.csv (reefs).",
              "example:\n  mbinspect inject line.all --piles piles.csv --out injected\n"

@@ -33,8 +33,8 @@ from .errors import InputError
 from .noise import seabed_residuals
 from .simulate import LABELS, Pile, Reef, Scene, Seabed, hit_objects, reef_boxes, reef_truth, truth_spacings
 
-__all__ = ["InjectedPile", "InjectedReef", "Injection", "inject", "ping_origins", "read_pile_file",
-           "read_reef_file"]
+__all__ = ["InjectedPile", "InjectedReef", "Injection", "estimate_pings", "inject", "ping_origins",
+           "read_pile_file", "read_reef_file"]
 
 
 @dataclass(frozen=True)
@@ -145,6 +145,69 @@ def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *
     return origins, np.isfinite(origins[:, 0])
 
 
+def estimate_pings(points: np.ndarray, *, jump: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
+    """Pings and beam angles of soundings that lost them (an XYZ or LAS export), from their order.
+
+    Exports keep each ping's soundings together, beam after beam across the swath: a step
+    from one sounding to the next of more than ``jump`` times the median step starts a new
+    ping. Each ping's transducer is taken above the middle of its swath (along the ping's
+    principal axis, beams running port to starboard in the file's order) at the water
+    surface (z = 0), which gives each sounding's beam angle.
+    Both are assumptions; :func:`inject` says so in a warning.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        In file order, z elevation (depths negative).
+    jump : float
+
+    Returns
+    -------
+    ping : ndarray of int, shape (N,)
+    beam_angle : ndarray, shape (N,)
+        Degrees from vertical.
+
+    Raises
+    ------
+    InputError
+        No ping structure in the order (fewer than 3 pings of at least 5 soundings), or
+        soundings above the surface.
+
+    Examples
+    --------
+    >>> ang = np.radians(np.linspace(-60, 60, 21))
+    >>> pings = [np.column_stack([20 * np.tan(ang), np.full(21, 0.5 * k), np.full(21, -20.0)])
+    ...          for k in range(4)]
+    >>> ping, angle = estimate_pings(np.vstack(pings))
+    >>> ping[[0, 20, 21, 83]].tolist(), round(float(angle[0]), 1), round(float(angle[10]), 1)
+    ([0, 0, 1, 3], -60.0, 0.0)
+    """
+    pts = np.asarray(points, float)
+    step = np.hypot(*np.diff(pts[:, :2], axis=0).T)
+    typical = float(np.median(step)) if len(step) else 0.0
+    ping = np.concatenate([[0], np.cumsum(step > jump * max(typical, 1e-6))]).astype(np.int64)
+    sizes = np.bincount(ping)
+    if (sizes >= 5).sum() < 3:
+        raise InputError("the soundings' order shows no pings (expected each ping's soundings together, "
+                         "beam after beam); give a survey with ping and beam_angle fields")
+    if np.median(pts[:, 2]) >= 0:
+        raise InputError("the soundings lie above z = 0; expected elevations below the water surface "
+                         "(negative depths) to place the transducers")
+    angle = np.zeros(len(pts))
+    order = np.argsort(ping, kind="stable")
+    for rows in np.split(order, np.flatnonzero(np.diff(ping[order])) + 1):
+        if len(rows) < 2:
+            continue
+        xy = pts[rows, :2] - pts[rows, :2].mean(axis=0)
+        axis = np.linalg.svd(xy, full_matrices=False)[2][0]
+        s = xy @ axis
+        if np.corrcoef(s, np.arange(len(s)))[0, 1] < 0:  # beams run port to starboard in the order
+            s = -s
+        s -= 0.5 * (s.min() + s.max())
+        angle[rows] = np.degrees(np.arctan2(s, np.maximum(-pts[rows, 2], 1e-3)))
+    return ping, angle
+
+
 def _seabed_at(xyz: np.ndarray, x: float, y: float, radius: float, what: str = "pile") -> float:
     d = np.hypot(xyz[:, 0] - x, xyz[:, 1] - y)
     for r in (radius + 1.0, radius + 3.0, radius + 10.0):
@@ -178,8 +241,6 @@ def _scene_reefs(pts: np.ndarray, origin: np.ndarray, reefs: Sequence[InjectedRe
     seabed under each is the survey's median level around it, so heights are exposed heights."""
     scene, truth = [], []
     for r in reefs:
-        if r.kind not in BUILTIN_DESIGNS:
-            raise InputError(f"reef {r.id}: kind {r.kind!r}; expected one of {', '.join(BUILTIN_DESIGNS)}")
         size = BUILTIN_DESIGNS[r.kind].radius * r.scale
         level = _seabed_at(pts, r.x, r.y, size, what="reef")
         x, y = r.x - origin[0], r.y - origin[1]
@@ -203,7 +264,9 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     xyz : ndarray, shape (N, 3)
         The survey (m, z up), with its ``fields``.
     fields : dict of ndarray (N,)
-        ``ping`` and ``beam_angle`` are needed (native sonar formats give them).
+        ``ping`` and ``beam_angle`` (native sonar formats give them); without them they
+        are estimated from the soundings' order (:func:`estimate_pings`), with a warning
+        in ``truth["warnings"]``.
     piles : sequence of InjectedPile
     reefs : sequence of InjectedReef
 
@@ -214,20 +277,27 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     Raises
     ------
     InputError
-        No ``ping`` or ``beam_angle`` field, an object outside the survey, objects that
+        No ping structure to estimate, an object outside the survey, objects that
         overlap, a reef kind that is not a built-in design or buried deeper than its height.
     """
-    missing = [k for k in ("ping", "beam_angle") if k not in fields]
-    if missing:
-        raise InputError(f"the survey has no {' or '.join(missing)} per sounding; expected a sonar file "
-                         "(GSF, KMALL, .all) or a cloud that keeps them")
     if not piles and not reefs:
         raise InputError("nothing to inject; expected piles or reefs")
     pts = np.asarray(xyz, float)
-    ping = np.asarray(fields["ping"], np.int64)
+    warnings = []
+    if "ping" in fields and "beam_angle" in fields:
+        ping = np.asarray(fields["ping"], np.int64)
+        angle = np.asarray(fields["beam_angle"], float)
+    else:
+        ping, angle = estimate_pings(pts)
+        warnings.append(f"the survey has no ping and beam angle per sounding: {ping.max() + 1:,} pings taken "
+                        "from the soundings' order, each transducer above the middle of its swath at z = 0; "
+                        "the shadows and the beams' incidence are approximate")
     origin = pts[:, :2].mean(axis=0)  # a local frame
     local = pts - [origin[0], origin[1], 0.0]
-    o, ok = ping_origins(local, ping, np.asarray(fields["beam_angle"], float))
+    o, ok = ping_origins(local, ping, angle)
+    for r in reefs:
+        if r.kind not in BUILTIN_DESIGNS:
+            raise InputError(f"reef {r.id}: kind {r.kind!r}; expected one of {', '.join(BUILTIN_DESIGNS)}")
     _check_apart(piles, reefs)
     scene_piles, truth_piles = _scene_piles(pts, origin, piles)
     scene_reefs, truth_reefs = _scene_reefs(pts, origin, reefs)
@@ -258,7 +328,7 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
                            for r in truth_reefs},
               "without_ping_geometry": int((~ok).sum())}
     truth = {"preset": "inject", "piles": truth_piles, "spacings": truth_spacings(truth_piles),
-             "counts": counts,
+             "counts": counts, "warnings": warnings,
              "design": [{"group": p["group"], "id": p["id"], "x": p["x"], "y": p["y"]} for p in truth_piles],
              "reefs": truth_reefs}
     return Injection(out, labels, ident, truth)
@@ -267,8 +337,7 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
 def _check_apart(piles: Sequence[InjectedPile], reefs: Sequence[InjectedReef]) -> None:
     """Objects must not overlap (a reef's reach is half its design's length times its scale)."""
     reach = [(f"pile {p.id}", p.x, p.y, p.radius) for p in piles] + [
-        (f"reef {r.id}", r.x, r.y, BUILTIN_DESIGNS[r.kind].radius * r.scale if r.kind in BUILTIN_DESIGNS
-         else 0.0) for r in reefs]
+        (f"reef {r.id}", r.x, r.y, BUILTIN_DESIGNS[r.kind].radius * r.scale) for r in reefs]
     for a, b in itertools.combinations(reach, 2):
         if math.hypot(a[1] - b[1], a[2] - b[2]) < a[3] + b[3] + 0.2:
             raise InputError(f"{a[0]} and {b[0]} overlap; expected objects apart")

@@ -1,6 +1,7 @@
 """Stage 6b: only piles are piles. A measured candidate that cannot be a standing pile
 (its top not above the seabed, leaning past ``max_tilt_deg``, or a radius far from the
-prior) is taken out of the answer and listed with the reasons."""
+prior), or that could only be given a centre from a handful of top points, is taken out
+of the answer and listed with the reasons."""
 
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
     top_height : float
         Height (m) of its top above the seabed around it.
     options : PileOptions
-        ``radius`` and ``max_tilt_deg``.
+        ``radius``, ``max_tilt_deg`` and ``min_top``.
 
     Returns
     -------
@@ -41,6 +42,9 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
     'top 11.9 m below the seabed around it'
     """
     reasons = []
+    if pile.method == "centre" and pile.n_top < options.min_top:
+        reasons.append(f"not measurable: a centre from only {pile.n_top} top points (`min_top` "
+                       f"{options.min_top}) and {pile.n_side} side points")
     if not top_height > 0:
         reasons.append(f"top {-top_height:.1f} m below the seabed around it")
     if pile.tilt_deg is not None and pile.tilt_deg > options.max_tilt_deg:

@@ -50,18 +50,20 @@ def _fit_one(design_xy: np.ndarray, measured: np.ndarray, covs: Sequence[np.ndar
     """Rotation (rad) and shift of the template onto the centres, weighted, and each residual."""
     origin = design_xy.mean(axis=0)
     d = design_xy - origin
+    # both sides centred, so the solver's tolerances act on millimetres wherever either frame lies
+    centre = measured.mean(axis=0)
+    m_local = measured - centre
     whiten = [np.linalg.cholesky(np.linalg.inv(c + np.eye(2) * 1e-8)).T for c in covs]
 
     def residual(q: np.ndarray) -> np.ndarray:
         c, s = math.cos(q[0]), math.sin(q[0])
-        placed = d @ np.array([[c, s], [-s, c]]) + origin + q[1:]
-        return np.concatenate([w @ (m - p) for w, m, p in zip(whiten, measured, placed, strict=True)])
+        placed = d @ np.array([[c, s], [-s, c]]) + q[1:]
+        return np.concatenate([w @ (m - p) for w, m, p in zip(whiten, m_local, placed, strict=True)])
 
-    start = np.r_[0.0, measured.mean(axis=0) - origin]
-    q = least_squares(residual, start).x
+    q = least_squares(residual, np.zeros(3), xtol=1e-12, ftol=1e-12).x
     c, s = math.cos(q[0]), math.sin(q[0])
-    placed = d @ np.array([[c, s], [-s, c]]) + origin + q[1:]
-    return float(q[0]), q[1:], measured - placed
+    placed = d @ np.array([[c, s], [-s, c]]) + q[1:]
+    return float(q[0]), q[1:] + centre - origin, m_local - placed
 
 
 def fit_frames(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: Design | None, *,

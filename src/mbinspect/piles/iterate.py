@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import DataError
+from .jackknife import line_jackknife
 from .measure import measure_pile, prune
 from .options import PileOptions
 from .results import PileMeasure, PileSegment
@@ -19,7 +21,7 @@ __all__ = ["iterate"]
 
 def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray], options: PileOptions,
             progress: Callable[[float], None] | None = None
-            ) -> tuple[dict[int, PileMeasure], list[dict[str, Any]]]:
+            ) -> tuple[dict[int, PileMeasure], list[dict[str, Any]], dict[int, str]]:
     """Measure every pile until the spacings settle.
 
     Each round measures every pile (:func:`~mbinspect.piles.measure_pile`, seeded with
@@ -46,7 +48,7 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
     >>> up, _, _ = elevated_points(sim.cloud.xyz)
     >>> labels, _ = separate_piles(sim.cloud.xyz[up], count=4, radius=0.75)
     >>> segs, normals, _ = segment_piles(sim.cloud.xyz[up], labels, opts)
-    >>> fits, rounds = iterate(segs, normals, opts)
+    >>> fits, rounds, unmeasured = iterate(segs, normals, opts)
     >>> len(fits), 2 <= len(rounds) <= opts.max_iterations
     (4, True)
 
@@ -57,18 +59,28 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
     iterations : list of dict
         Per round: ``iteration``, ``centres`` (id -> [x, y, z]) and ``spacings``
         ("a-b" -> m).
+    unmeasured : dict
+        Pile id -> why it could not be measured (too few top and side points); such a
+        pile leaves the rounds and never stops the others.
     """
     report = progress or (lambda f: None)
     fits: dict[int, PileMeasure] = {}
     iterations: list[dict[str, Any]] = []
     active = {pid: (s.top.copy(), s.side.copy()) for pid, s in segments.items()}
     prev: dict[tuple[int, int], float] | None = None
+    unmeasured: dict[int, str] = {}
+    segments = dict(segments)
     for it in range(1, options.max_iterations + 1):
-        for pid, seg in segments.items():
+        for pid, seg in list(segments.items()):
             top_m, side_m = active[pid]
             normals = side_normals[pid][side_m[seg.side]] if side_m.any() else np.zeros((0, 3))
-            fits[pid] = measure_pile(seg, top_m, side_m, normals, options=options, seed=options.seed + pid,
-                                     previous=fits.get(pid))
+            try:
+                fits[pid] = measure_pile(seg, top_m, side_m, normals, options=options,
+                                         seed=options.seed + pid, previous=fits.get(pid))
+            except DataError as exc:
+                unmeasured[pid] = str(exc)
+                del segments[pid]
+                fits.pop(pid, None)
         current = {(a, b): math.hypot(fits[a].x - fits[b].x, fits[a].y - fits[b].y)
                    for a, b in itertools.combinations(sorted(fits), 2)}
         iterations.append({
@@ -84,4 +96,8 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
         for pid, seg in segments.items():
             active[pid] = prune(seg, fits[pid], radius=options.radius, ks=options.ks,
                                 threshold=options.threshold)
-    return fits, iterations
+    for pid, seg in segments.items():  # the errors each line shares, from their disagreement
+        top_m, side_m = active[pid]
+        normals = side_normals[pid][side_m[seg.side]] if side_m.any() else np.zeros((0, 3))
+        fits[pid] = line_jackknife(seg, top_m, side_m, normals, fits[pid], options, options.seed + pid)
+    return fits, iterations, unmeasured

@@ -7,6 +7,7 @@ holds everything, and its ``to_dict()`` is ``piles.json``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +28,7 @@ class PileSegment:
     top: np.ndarray
     side: np.ndarray
     ping: np.ndarray | None = None
+    line: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,6 +66,9 @@ class PileMeasure:
     alternatives : dict
         With both methods, each method's centre (``x, y, z, sigma_xy`` and, for the
         centre method, ``cov`` and ``top_coverage``).
+    line_sigma_xy : float
+        The part of ``sigma_xy`` the lines' disagreement adds (m; NaN: fewer than three
+        lines, or no line per sounding; :func:`~mbinspect.piles.jackknife.line_jackknife`).
     """
 
     x: float
@@ -85,6 +90,7 @@ class PileMeasure:
     radius_used: float | None = None
     flags: tuple[str, ...] = ()
     alternatives: dict[str, dict[str, Any]] = field(default_factory=dict)
+    line_sigma_xy: float = math.nan
 
     @property
     def centre(self) -> np.ndarray:
@@ -118,6 +124,7 @@ class PileFit:
     top_coverage: float | None = None
     alternatives: dict[str, dict[str, float]] = field(default_factory=dict)
     group: int = 1
+    line_sigma_xy: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``piles.json``; the other method's centre under ``methods``."""
@@ -126,7 +133,7 @@ class PileFit:
             "tilt_deg": self.tilt_deg, "tilt_azimuth_deg": self.tilt_azimuth_deg,
             "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
             "side_coverage_deg": self.side_coverage_deg, "rms": self.rms,
-            "sigma_xy": self.sigma_xy, "flags": list(self.flags),
+            "sigma_xy": self.sigma_xy, "line_sigma_xy": self.line_sigma_xy, "flags": list(self.flags),
             "radius_fitted": self.radius_fitted, "top_coverage": self.top_coverage,
         }
         if self.alternatives:

@@ -87,6 +87,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
                         f"under {opts.radius:g} m apart")
     intensity = cloud.fields.get("intensity") if opts.use_intensity else None
     ping = cloud.fields.get("ping")
+    line = cloud.fields.get("line")
     report = progress or (lambda f: None)
     elevated, seabed, height = elevated_points(pts, min_height=opts.min_height, seabed_cell=opts.seabed_cell,
                                                seabed_window=opts.opening_window)
@@ -104,15 +105,22 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
         if intensity is not None else None
     segs, side_n, seg_info = segment_piles(
         pts[eidx], labels, opts, intensity=None if intensity is None else intensity[eidx],
-        intensity_threshold=thr, ping=None if ping is None else ping[eidx])
-    fits, iterations = iterate(segs, side_n, opts, report)
+        intensity_threshold=thr, ping=None if ping is None else ping[eidx],
+        line=None if line is None else line[eidx])
+    fits, iterations, unmeasured = iterate(segs, side_n, opts, report)
     piles = tuple(assess_pile(pid, fits[pid], opts) for pid in sorted(fits))
     piles, kept, rejected = _standing(piles, seabed, opts)
+    for pid, why in unmeasured.items():
+        c = segs[pid].points.mean(axis=0)
+        rejected.append({"x": float(c[0]), "y": float(c[1]), "z": float(segs[pid].points[:, 2].max()),
+                         "top_height": None, "tilt_deg": None, "radius_fitted": None,
+                         "reasons": [f"not measurable: {why.split(': ', 1)[-1]}"]})
     if not piles:
         raise DataError("no pile found: " + "; ".join(
             f"the candidate near ({r['x']:.1f}, {r['y']:.1f}) is not a pile ({', '.join(r['reasons'])})"
             for r in rejected))
-    warnings += [f"not a pile near ({r['x']:.1f}, {r['y']:.1f}): {', '.join(r['reasons'])}" for r in rejected]
+    warnings += [f"{'candidate' if r['reasons'][0].startswith('not measurable') else 'not a pile'} near "
+                 f"({r['x']:.1f}, {r['y']:.1f}): {', '.join(r['reasons'])}" for r in rejected]
     fits = {new: fits[old] for new, old in kept.items()}
     segs = {new: segs[old] for new, old in kept.items() if old in segs}
     seg_info = {new: seg_info[old] for new, old in kept.items() if old in seg_info}

@@ -92,7 +92,7 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
 
 def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, *,
                   intensity: np.ndarray | None = None, intensity_threshold: float | None = None,
-                  ping: np.ndarray | None = None
+                  ping: np.ndarray | None = None, line: np.ndarray | None = None
                   ) -> tuple[dict[int, PileSegment], dict[int, np.ndarray], dict[int, dict[str, Any]]]:
     """Every pile's points split into top and side (:func:`split_top_side`).
 
@@ -104,8 +104,8 @@ def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, 
         Pile 0..K-1 of each point, -1 for none (:func:`~mbinspect.piles.separate_piles`).
     options : PileOptions
         ``radius``, ``window``, ``step`` and ``segmentation``.
-    intensity, ping : ndarray (N,), optional
-        Backscatter and ping number of each point.
+    intensity, ping, line : ndarray (N,), optional
+        Backscatter, ping number and survey line of each point.
     intensity_threshold : float, optional
         Points darker than this are dropped (the joint segmentation only).
 
@@ -141,6 +141,7 @@ def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, 
             intensity=None if intensity is None else intensity[idx],
             intensity_threshold=intensity_threshold, paper=(options.segmentation == "paper"),
             point_normals=(nrm, planarity))
-        segs[c + 1] = PileSegment(p, top, side, None if ping is None else ping[idx])
+        segs[c + 1] = PileSegment(p, top, side, None if ping is None else ping[idx],
+                                  None if line is None else line[idx])
         side_n[c + 1] = nrm[side]
     return segs, side_n, info

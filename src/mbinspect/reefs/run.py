@@ -15,6 +15,7 @@ from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
+from .footprint import Raster
 from .ground import Seabed, fit_seabed
 from .group import number_reefs
 from .measure import measure_reef
@@ -47,13 +48,18 @@ def _filter_loss(pts: np.ndarray, removed: int, opts: ReefOptions) -> str | None
             f"than it expects; `noise_radius` {r99:.2f} keeps 99 % of them")
 
 
+def _enough(pts: np.ndarray, filter_note: str | None) -> None:
+    """Stop when fewer than 10 soundings are left, with the filter's note as the reason."""
+    if len(pts) < 10:
+        raise DataError("fewer than 10 soundings left after filtering; nothing to extract"
+                        + (f": {filter_note}" if filter_note else ""))
+
+
 def _check_resolution(pts: np.ndarray, opts: ReefOptions, filter_note: str | None) -> None:
     """Stop when the soundings lie too far apart to resolve an object of ``min_area``: the
     footprint rasters and seabed grids would measure the gaps between soundings (and grow
     with a deep survey's extent) rather than any reef."""
-    if len(pts) < 10:
-        raise DataError("fewer than 10 soundings left after filtering; nothing to extract"
-                        + (f": {filter_note}" if filter_note else ""))
+    _enough(pts, filter_note)
     spacing = sounding_spacing(pts, seed=opts.seed)
     most = math.sqrt(opts.min_area)
     if spacing > most / 2:
@@ -131,9 +137,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     ping = cloud.fields.get("ping")
     if ping is not None:
         ping = ping[keep] if ground.kept is None else ping[keep][ground.kept]
-    if len(kept) < 10:
-        raise DataError("fewer than 10 soundings left after filtering; nothing to extract"
-                        + (f": {filter_note}" if filter_note else ""))
+    _enough(kept, filter_note)
     report(0.35)
     surf, seabed_info = fit_seabed(kept, mode=opts.seabed if local else "plane",
                                    threshold=opts.plane_threshold, confidence=opts.confidence,
@@ -243,21 +247,25 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         reefs = [with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
     others = []
     for p in small:
-        o = measure_reef(points, p, raster, seabed, is_reef=is_reef)
-        others.append({"x": o.x, "y": o.y, "height": o.height, "area": o.area, "z_top": o.z_top,
-                       "n_points": o.n_points, "reason": f"smaller than `min_area` {options.min_area:g} m²"})
+        others.append(_other(measure_reef(points, p, raster, seabed, is_reef=is_reef),
+                             f"smaller than `min_area` {options.min_area:g} m²"))
     kept = []
     for r, p in zip(reefs, parts, strict=True):
         why = _not_a_reef(r, p, raster, is_reef, ping, options)
         if why:
-            others.append({"x": r.x, "y": r.y, "height": r.height, "area": r.area, "z_top": r.z_top,
-                           "n_points": r.n_points, "reason": why})
+            others.append(_other(r, why))
         else:
             kept.append(r)
     return kept, others, used_area
 
 
-def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Any, is_reef: np.ndarray, ping: np.ndarray | None,
+def _other(reef: Reef, reason: str) -> dict[str, Any]:
+    """An object that is not a reef, as ``others`` lists it."""
+    return {"x": reef.x, "y": reef.y, "height": reef.height, "area": reef.area, "z_top": reef.z_top,
+            "n_points": reef.n_points, "reason": reason}
+
+
+def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Raster, is_reef: np.ndarray, ping: np.ndarray | None,
                 options: ReefOptions) -> str | None:
     """Why a measured footprint is not a reef, or None: a ridge, far lower than the design
     fitted to it, or seen by too few pings."""
@@ -290,7 +298,7 @@ def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Any, is_reef: np.ndarray,
     return None
 
 
-def _pings(cells: np.ndarray, raster: Any, is_reef: np.ndarray, ping: np.ndarray) -> int:
+def _pings(cells: np.ndarray, raster: Raster, is_reef: np.ndarray, ping: np.ndarray) -> int:
     """How many pings the reef soundings behind a footprint's cells come from."""
     idx = raster.nearest.ravel()[cells]
     idx = idx[idx >= 0]
