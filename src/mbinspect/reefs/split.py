@@ -104,6 +104,10 @@ def diameter(xy: np.ndarray) -> float:
     return float(np.sqrt((d**2).sum(axis=2)).max())
 
 
+#: Share of a single reef's area below which a footprint part is a speck, not a fragment.
+SPECK = 0.01
+
+
 def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float,
                      reef_area: float | np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
     """Join fragments that together make one reef.
@@ -138,7 +142,9 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
     ra = np.broadcast_to(np.asarray(reef_area, np.float64), (len(parts),))
     if len(parts) < 2 or not np.isfinite(ra).any():
         return parts, areas
-    frag = [i for i in range(len(parts)) if areas[i] < 0.6 * ra[i]]
+    # fragments: under 0.6 of a reef, over a hundredth of one (specks of noise join no reef,
+    # and thousands of them in a noisy field made the pairing below quadratic)
+    frag = [i for i in range(len(parts)) if SPECK * ra[i] < areas[i] < 0.6 * ra[i]]
     single = [i for i in range(len(parts)) if 0.7 * ra[i] <= areas[i] <= 1.3 * ra[i]]
     if len(frag) < 2 or not single:
         return parts, areas
@@ -157,37 +163,42 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
         near = s_tree.query_ball_point(c, 25.0)
         return float(np.median(diam[near])) if len(near) >= 3 else float(np.median(diam))
 
-    # open unions: (cells, area, single-reef area there, centre)
-    pool = {i: (parts[i], float(areas[i]), float(ra[i]), cells_xy(parts[i]).mean(axis=0)) for i in frag}
+    # open unions: (cells, their plan positions, area, single-reef area there, centre)
+    pool = {}
+    for i in frag:
+        xy = cells_xy(parts[i])
+        pool[i] = (parts[i], xy, float(areas[i]), float(ra[i]), xy.mean(axis=0))
     parts = list(parts)
     gone: set[int] = set()  # parts absorbed into another
     while len(pool) >= 2:
         best = None
         keys = sorted(pool)
-        for n_a, a in enumerate(keys):
-            pa, aa, ra_a, ca = pool[a]
-            for b in keys[n_a + 1:]:
-                pb, ab, ra_b, cb = pool[b]
-                dist = float(np.hypot(*(ca - cb)))
-                r = max(ra_a, ra_b)
-                if dist > limit or aa + ab > 1.3 * r:
-                    continue
-                # of the possible unions, first the one spanning most nearly one whole reef
-                # (two walls of one hollow reef, not the facing walls of two neighbours)
-                d_union = diameter(np.vstack([cells_xy(pa), cells_xy(pb)]))
-                score = abs(d_union - typical((ca + cb) / 2))
-                if d_union <= limit and (best is None or score < best[0]):
-                    best = (score, a, b)
+        # only fragments whose centres lie within ``limit`` can be one reef: asked of a tree,
+        # so that a noisy field's many specks do not make every pair a candidate
+        near = cKDTree(np.array([pool[k][4] for k in keys])).query_pairs(limit, output_type="ndarray")
+        for n_a, n_b in sorted(map(tuple, near)):
+            a, b = keys[n_a], keys[n_b]
+            pa, xa, aa, ra_a, ca = pool[a]
+            pb, xb, ab, ra_b, cb = pool[b]
+            if aa + ab > 1.3 * max(ra_a, ra_b):
+                continue
+            # of the possible unions, first the one spanning most nearly one whole reef
+            # (two walls of one hollow reef, not the facing walls of two neighbours)
+            d_union = diameter(np.vstack([xa, xb]))
+            score = abs(d_union - typical((ca + cb) / 2))
+            if d_union <= limit and (best is None or score < best[0]):
+                best = (score, a, b)
         if best is None:
             break
         _, a, b = best
-        pa, aa, ra_a, _ = pool.pop(a)
-        pb, ab, ra_b, _ = pool.pop(b)
+        pa, xa, aa, ra_a, _ = pool.pop(a)
+        pb, xb, ab, ra_b, _ = pool.pop(b)
         parts[a] = np.concatenate([pa, pb])
         gone.add(b)
         r = max(ra_a, ra_b)
         if aa + ab < r:  # still smaller than one reef: open to more fragments
-            pool[a] = (parts[a], aa + ab, r, cells_xy(parts[a]).mean(axis=0))
+            xy = np.vstack([xa, xb])
+            pool[a] = (parts[a], xy, aa + ab, r, xy.mean(axis=0))
     out = [p for i, p in enumerate(parts) if i not in gone]
     return out, np.array([len(p) for p in out]) * cell * cell
 
