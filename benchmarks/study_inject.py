@@ -14,7 +14,8 @@ soundings reach a pile: the figure that matters is whether what cannot be measur
 Reefs: four built-in designs (cross1, cross2, hollow and triangle, the last two at 0.7 of
 their size, sunk 0.1 m) on a square of 6 m sides (or half the seabed's width, at least
 4.5 m; on a smaller file a cross1 and a hollow 5.5 m apart) at seeded placements;
-``extract_reefs`` with the reference (the injected centres) and the designs scores them:
+``extract_reefs`` with the reference (the injected centres) and the designs (their scale
+tolerance 0.35, for the two built at 0.7) scores them:
 reefs found, false reefs, objects set aside, and the exposed height error of the matches.
 """
 
@@ -80,8 +81,9 @@ def _reef_row(name: str, cloud: PointCloud, side: float, placements: int) -> lis
         truth = inj.truth["reefs"]
         ref = (np.array([[r["x"], r["y"]] for r in truth]), tuple(r["id"] for r in truth))
         try:
+            # two designs are built at 0.7 of their size here: a tolerance that admits them
             res = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields)), reference=ref,
-                                design=",".join(k for k, _ in REEFS))
+                                design=",".join(k for k, _ in REEFS), design_scale_tolerance=0.35)
         except MBInspectError:
             stopped += 1
             fn += len(truth)
