@@ -1160,6 +1160,8 @@ def _reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
     side = int(math.ceil(math.sqrt(opt.per_group)))
     reefs: list[Reef] = []
 
+    # one sink per reef id, drawn up front so that a reef rebuilt for the shore (below) keeps
+    # its own; the table's size bounds the ids, not the field (ids stay in the hundreds)
     sunk = rng.uniform(0.0, opt.burial_max, 10_000) if opt.burial_max > 0 else np.zeros(10_000)
 
     def make(rid: int, kind: str, x: float, y: float, b: float, g: int) -> Reef:
