@@ -38,7 +38,7 @@ def test_info_text_and_json(small_file, capsys):
         (["info", "missing.xyz"], "missing.xyz: no such file"),
         (["info", "{bad}"], "line 2, column 3: 'oops' is not a number"),
         (["info", "{bad}", "--columns", "x,y"], "expected exactly one 'z' column"),
-        (["info"], "the following arguments are required: input"),
+        (["info"], "the following arguments are required: INPUT"),
         (["simulate", "jacket", "--radius", "abc"], "--radius: 'abc' is not a number"),
         (["simulate", "jacket", "--per-group", "3"], "not an option of the jacket preset"),
         (["frobnicate"], "invalid choice: 'frobnicate'"),

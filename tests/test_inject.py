@@ -137,7 +137,9 @@ def test_injected_reefs_are_found_with_their_exposed_height():
     ev = res.evaluation
     assert (ev.tp, ev.fp, ev.fn) == (2, 0, 0) and not res.others
     for i, j, dist in ev.matches:
-        assert dist < 0.15
+        # the hollow square lies 0.157 m off (0.14 m while the footprint raster ended at the
+        # reef soundings' extent: its edge cells then took a reef sounding as their nearest)
+        assert dist < 0.2
         assert res.reefs[i].height == pytest.approx(truth[j]["height"], abs=0.05)
         assert res.reefs[i].design == truth[j]["kind"]
 

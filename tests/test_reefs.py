@@ -72,8 +72,7 @@ def test_designs_bring_every_footprint_within_ten_percent(reef_small):
 
 
 def test_hollow_reefs_broken_between_pings_are_whole_again_with_their_design():
-    # thin walls square to the track fall between 0.55 m pings: free-form parts are halves
-    # (on this scene with the classic sonar; with the shallow one its noise happens to join them)
+    # thin walls square to the track fall between 0.55 m pings (the classic sonar)
     sim = simulate("reef-field", seed=1, groups="hollow", per_group=16, close_pairs=0, boulders=0,
                    debris=0, sonar="classic")
     # with the paper's fixed 0.5 m radius filter (noise_spacing 0), which also strips 4,235

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import hashlib
 import json
 import os
 import re
@@ -27,6 +26,16 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from . import __version__
+from .cli_survey import (
+    add_inputs,
+    add_soundings_parser,
+    add_survey_flags,
+    file_records,
+    input_files,
+    read_options,
+    run_pipeline,
+    survey_options,
+)
 from .errors import MBInspectError, ParameterError
 
 __all__ = ["main", "run", "build_parser"]
@@ -92,11 +101,14 @@ class Reporter:
 # ----------------------------------------------------------------------------- shared pieces
 
 
-def _add_input(p: argparse.ArgumentParser) -> None:
+def _add_input(p: argparse.ArgumentParser, many: bool = False) -> None:
     from .io import FORMAT_NAMES
 
-    p.add_argument("input", help="point cloud or sonar file (.xyz .txt .csv .las .laz .ply .npz .gsf "
-                                 ".kmall .all)")
+    if many:
+        add_inputs(p)
+    else:
+        p.add_argument("input", help="point cloud or sonar file (.xyz .txt .csv .las .laz .ply .npz .gsf "
+                                     ".kmall .all)")
     g = p.add_argument_group("reading")
     g.add_argument("--format", choices=FORMAT_NAMES, help="file format when the extension does not say it")
     g.add_argument("--columns", metavar="MAP",
@@ -124,37 +136,43 @@ def _add_output(p: argparse.ArgumentParser, default: str) -> None:
 
 
 def _check_input(args: argparse.Namespace) -> None:
-    """The reading options, checked before any work (the file is read later)."""
+    """The inputs expanded (several files, folders, globs) into ``args.files`` and the
+    reading options checked on each, before any work (the files are read later)."""
     from .io import check_read_options
 
+    if isinstance(args.input, list):
+        args.files = input_files(args)
+        args.input = str(args.files[0]) if len(args.files) == 1 else args.input
+        return
     check_read_options(args.input, format=args.format, columns=args.columns, delimiter=args.delimiter)
+    args.files = [Path(args.input)]
 
 
 def _read_input(args: argparse.Namespace, rep: Reporter) -> Any:
-    from .io import read
+    from .survey.inputs import read_survey
 
     t = time.perf_counter()
-    cloud = read(args.input, format=args.format, columns=args.columns,
-                 depth_positive=args.depth_positive, delimiter=args.delimiter, crs=args.crs,
-                 keep_rejected=args.keep_rejected, decimal=args.decimal, z_up=args.z_up)
-    rep.debug(f"read {len(cloud):,} points from {args.input} in {time.perf_counter() - t:.2f} s")
+    cloud = read_survey(args.files, **read_options(args))
+    rep.debug(f"read {len(cloud):,} points from {len(args.files)} file(s) in {time.perf_counter() - t:.2f} s")
     return cloud
 
 
 def _file_record(path: str) -> dict[str, Any]:
     """Name, size and sha256 of an input file (for ``parameters``)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return {"file": str(path), "size": os.path.getsize(path), "sha256": h.hexdigest()}
+    return file_records([Path(path)])[0]
 
 
-def _provenance(result: Any, args: argparse.Namespace, argv: Sequence[str], **files: str | None) -> Any:
-    """The result with the input files and the command line added to its parameters."""
+def _provenance(result: Any, args: argparse.Namespace, argv: Sequence[str], **others: str | None) -> Any:
+    """The result with the input files, the reading options and the command line added to
+    its parameters."""
     params = dict(result.parameters)
-    params["input"] = {**params.get("input", {}), **_file_record(args.input)}
-    for name, path in files.items():
+    inputs = args.files if hasattr(args, "files") else [Path(args.input)]
+    if len(inputs) == 1:
+        params["input"] = {**params.get("input", {}), **_file_record(str(inputs[0]))}
+    else:
+        params["input"] = {**params.get("input", {}), "files": file_records(inputs)}
+    params["reading"] = read_options(args)
+    for name, path in others.items():
         if path is not None:
             params[name] = _file_record(path) if Path(path).is_file() else path
     params["command_line"] = ["mbinspect", *argv]
@@ -285,6 +303,8 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
         return 0
     out = Path(args.out) if args.out else Path(f"sim-{args.preset}-{args.seed}")
     ext = {"xyz": ".xyz", "las": ".las", "laz": ".laz", "ply": ".ply", "npz": ".npz"}[args.format]
+    if args.per_line:
+        return _simulate_lines(args, given, out, ext, rep, argv)
     with output_dir(out, overwrite=args.overwrite) as tmp:
         t = time.perf_counter()
         sim = simulate(args.preset, seed=args.seed, progress=rep.progress("ray casting"),
@@ -304,6 +324,29 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
              else f"{len(sim.truth['reefs'])} reefs")
     rep.info(f"{args.preset}: {len(sim.cloud):,} soundings, {n_obj}, written to "
              f"{out / cloud_path.name} with truth.json")
+    return 0
+
+
+def _simulate_lines(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: str, rep: Reporter,
+                    argv: Sequence[str]) -> int:
+    """``simulate --per-line``: one file per survey line, streamed line by line."""
+    from .outputs import output_dir, write_json, write_table
+    from .simulate import reef_reference_rows, simulate_lines
+
+    with output_dir(out, overwrite=args.overwrite) as tmp:
+        t = time.perf_counter()
+        truth = simulate_lines(args.preset, tmp, seed=args.seed, suffix=ext,
+                               progress=rep.progress("lines"), **given)
+        write_json({**truth, "command_line": ["mbinspect", *argv]}, tmp / "truth.json")
+        if truth.get("design"):
+            cols = (["group"] if "group" in truth["design"][0] else []) + ["id", "x", "y"]
+            write_table(truth["design"], tmp / "design.csv", cols)
+        if truth["reefs"]:
+            rows = [{"x": x, "y": y, "id": i} for x, y, i in reef_reference_rows(truth, seed=args.seed)]
+            write_table(rows, tmp / "reference.csv", ["x", "y", "id"])
+        rep.debug(f"simulated {truth['n_soundings']:,} soundings in {time.perf_counter() - t:.2f} s")
+    rep.info(f"{args.preset}: {truth['n_soundings']:,} soundings in {len(truth['files'])} line files in "
+             f"{out}/ with truth.json")
     return 0
 
 
@@ -369,14 +412,15 @@ def _add_pile_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("piles (every option of mbinspect.piles.PileOptions)")
     g.add_argument("--design", metavar="CSV", help="design positions (id,x,y) or spacings (a,b,distance)")
     add_flags(g, PileOptions)
+    add_survey_flags(p)
     _add_output(p, "piles-out")
 
 
-def _finish_piles(result: Any, cloud: Any, tmp: Path, out: Path, args: argparse.Namespace,
+def _finish_piles(result: Any, points: Any, tmp: Path, out: Path, args: argparse.Namespace,
                   rep: Reporter, truth: Any = None, title: str = "Pile positions and spacings") -> int:
     from .report import spacing_table, write_pile_outputs
 
-    write_pile_outputs(result, cloud.xyz, tmp, figures=not args.no_figures, truth=truth, title=title)
+    write_pile_outputs(result, points, tmp, figures=not args.no_figures, truth=truth, title=title)
     tp = None if truth is None else {(s["a"], s["b"]): s["distance"] for s in truth["spacings"]}
     if rep.verbosity >= 0:
         print(spacing_table(result, tp))
@@ -395,19 +439,20 @@ def _finish_piles(result: Any, cloud: Any, tmp: Path, out: Path, args: argparse.
 def _cmd_piles(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     from .options import given_options
     from .outputs import output_dir
-    from .piles import PileOptions, locate_piles, read_design
+    from .piles import PileOptions, read_design
 
     options = PileOptions.from_given(given_options(args, PileOptions))
+    survey = survey_options(args)
     _check_input(args)
     design = read_design(args.design) if args.design else None
     out = Path(args.out or "piles-out")
-    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, args.design]) as tmp:
-        cloud = _read_input(args, rep)
+    with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.design]) as tmp:
         t = time.perf_counter()
-        result = locate_piles(cloud, options, design=design, progress=rep.progress("piles"))
-        rep.debug(f"located {len(result.piles)} piles in {time.perf_counter() - t:.2f} s")
-        result = _provenance(result, args, argv, design=args.design)
-        return _finish_piles(result, cloud, tmp, out, args, rep)
+        run = run_pipeline("piles", args, args.files, options, survey, verbosity=rep.verbosity,
+                           extra={"design": design}, staging=tmp)
+        rep.debug(f"located {len(run.result.piles)} piles in {time.perf_counter() - t:.2f} s")
+        result = _provenance(run.result, args, argv, design=args.design)
+        return _finish_piles(result, run.points, tmp, out, args, rep)
 
 
 def _cmd_demo(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
@@ -432,7 +477,7 @@ def _cmd_demo(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> i
         result = dataclasses.replace(result, parameters={**result.parameters,
                                                          "command_line": ["mbinspect", *argv]})
         write_json(sim.truth, tmp / "truth.json")
-        return _finish_piles(result, sim.cloud, tmp, out, args, rep, truth=sim.truth,
+        return _finish_piles(result, sim.cloud.xyz, tmp, out, args, rep, truth=sim.truth,
                              title="mbinspect demo: a simulated four-pile jacket")
 
 
@@ -446,6 +491,7 @@ def _add_reef_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("reefs (every option of mbinspect.reefs.ReefOptions)")
     g.add_argument("--reference", metavar="CSV", help="reference reef positions: x,y[,id]")
     add_flags(g, ReefOptions)
+    add_survey_flags(p)
     _add_output(p, "reefs-out")
 
 
@@ -457,21 +503,23 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     from .evaluate import read_reference
     from .options import given_options
     from .outputs import output_dir
-    from .reefs import ReefOptions, extract_reefs
+    from .reefs import ReefOptions
     from .report import write_reef_outputs
 
     options = ReefOptions.from_given(given_options(args, ReefOptions))  # a bad design fails here
+    survey = survey_options(args)
     _check_input(args)
     reference = read_reference(args.reference) if args.reference else None
     design_files = [s for s in (args.opt_design or "").split(",") if s.strip().lower().endswith(".json")]
     out = Path(args.out or "reefs-out")
-    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, args.reference, *design_files]) as tmp:
-        cloud = _read_input(args, rep)
+    with output_dir(out, overwrite=args.overwrite,
+                    inputs=[*map(str, args.files), args.reference, *design_files]) as tmp:
         t = time.perf_counter()
-        result = extract_reefs(cloud, options, reference=reference, progress=rep.progress("reefs"))
-        rep.debug(f"extracted {len(result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
-        result = _provenance(result, args, argv, reference=args.reference)
-        write_reef_outputs(result, cloud.xyz, tmp, figures=not args.no_figures)
+        run = run_pipeline("reefs", args, args.files, options, survey, verbosity=rep.verbosity,
+                           extra={"reference": reference}, staging=tmp)
+        rep.debug(f"extracted {len(run.result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
+        result = _provenance(run.result, args, argv, reference=args.reference)
+        write_reef_outputs(result, run.points, tmp, figures=not args.no_figures)
     d = result.to_dict()
     if rep.verbosity >= 0:
         print(f"{len(d['reefs'])} reefs in {len(d['groups'])} groups, {len(d['others'])} other "
@@ -494,6 +542,8 @@ examples:
   mbinspect demo
   mbinspect piles survey.laz --count 4 --radius 0.75 --design design.csv --out piles-out
   mbinspect reefs field.laz --reference reefs.csv --out reefs-out
+  mbinspect reefs lines/ --workers 2 --out reefs-out        (a folder of line files, tiled on Dask)
+  mbinspect soundings reefs-out/reefs.json 17 --out reef17.csv
   mbinspect simulate jacket --seed 1 --out sim-jacket
   mbinspect info sim-jacket/soundings.xyz
   mbinspect info survey.csv --columns x,y,-,depth --depth-positive --json
@@ -526,7 +576,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = _sub(sub, "info", "point count, bounds, fields, density of a cloud",
              "Summarise a point cloud: count, bounds, z range, fields, density.",
              "example:\n  mbinspect info soundings.laz --json")
-    _add_input(p)
+    _add_input(p, many=True)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--noise", action="store_true",
                    help="also the seabed noise: sigma and tails by beam angle, correlations, backscatter")
@@ -553,6 +603,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulate even a survey of more than 50 million soundings")
     p.add_argument("--show-options", action="store_true",
                    help="list the preset's options and defaults, then stop")
+    p.add_argument("--per-line", action="store_true",
+                   help="write one file per survey line (line_001.laz ...), streaming line by line: a survey "
+                        "of any size in the memory of one line")
     _add_simulate_options(p)
     p.set_defaults(func=_cmd_simulate)
 
@@ -587,7 +640,7 @@ def build_parser() -> argparse.ArgumentParser:
              "examples:\n  mbinspect piles survey.laz --count 4 --radius 0.75 --design design.csv\n"
              "  mbinspect piles soundings.xyz --radius 0.75 --method both --out piles-out\n"
              "  mbinspect piles depths.csv --columns x,y,z --depth-positive --count 4 --radius 1.0")
-    _add_input(p)
+    _add_input(p, many=True)
     _add_pile_options(p)
     p.set_defaults(func=_cmd_piles)
 
@@ -599,7 +652,7 @@ def build_parser() -> argparse.ArgumentParser:
              "examples:\n  mbinspect reefs field.laz --reference reefs.csv --out reefs-out\n"
              "  mbinspect reefs field.laz --design cross2,cross1 --out reefs-out\n"
              "  mbinspect reefs soundings.xyz --method paper --no-figures")
-    _add_input(p)
+    _add_input(p, many=True)
     _add_reef_options(p)
     p.set_defaults(func=_cmd_reefs)
 
@@ -612,6 +665,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="top-centre method (default intersection)")
     _add_output(p, "demo-out")
     p.set_defaults(func=_cmd_demo)
+
+    add_soundings_parser(sub, _sub)
     return parser
 
 

@@ -10,7 +10,11 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow", "coverage",
-           "sounding_spacing", "stray_soundings", "STRAY_SHARE"]
+           "sounding_spacing", "stray_soundings", "stray_cells", "STRAY_SHARE"]
+
+
+#: Cells by which a sounding on a cell edge is counted into the cell above it.
+EDGE = 1e-6
 
 
 def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
@@ -38,8 +42,18 @@ def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[n
     >>> i.tolist(), j.tolist()
     ([0, -1], [2, 0])
     """
-    i = np.floor((points[:, 0] - x0) * (1.0 / cell)).astype(np.int64)
-    j = np.floor((points[:, 1] - y0) * (1.0 / cell)).astype(np.int64)
+    inv = 1.0 / cell
+    ox, oy = x0 * inv, y0 * inv
+    if abs(ox - round(ox)) < 1e-6 and abs(oy - round(oy)) < 1e-6:
+        # a corner on the lattice of whole cells from (0, 0): count from there, so that a
+        # sounding on a cell edge (millimetre coordinates on a 0.1 m grid) falls in the same
+        # cell whichever lattice corner a grid (of a tile, of the whole survey) starts from
+        # (a millionth of a cell up: a sounding on an edge goes to the cell above it whatever
+        # the rounding of x / cell, so that moving the survey by whole cells moves it too)
+        return (np.floor(points[:, 0] * inv + EDGE).astype(np.int64) - int(round(ox)),
+                np.floor(points[:, 1] * inv + EDGE).astype(np.int64) - int(round(oy)))
+    i = np.floor((points[:, 0] - x0) * inv).astype(np.int64)
+    j = np.floor((points[:, 1] - y0) * inv).astype(np.int64)
     return i, j
 
 
@@ -60,7 +74,9 @@ def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray
     keys, z : ndarray, shape (N,)
         Sorted by cell, then by z (m, to the millimetre).
     """
-    z0 = float(z.min())
+    # from a whole kilometre: the same millimetres (and the same halves rounded) in any
+    # subset of the soundings, such as a tile of a survey
+    z0 = 1000.0 * float(np.floor(z.min() / 1000.0))
     zq = np.round((z - z0) * 1000.0).astype(np.int64)
     span = int(zq.max()) + 1
     packed = np.sort(key * span + zq)
@@ -207,28 +223,53 @@ def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 
     >>> stray_soundings(np.vstack([survey, jump])).nonzero()[0].tolist()
     [2000, 2001, 2002, 2003, 2004]
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     xy = np.asarray(points, np.float64)[:, :2]
     if len(xy) == 0:
         return np.zeros(0, dtype=bool)
-    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
+    # cells counted from (0, 0), not from the soundings' corner: a tile of a survey sees the
+    # same cells as the whole survey
+    ij = np.floor(xy / cell).astype(np.int64)
     cells, inverse, counts = np.unique(ij, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    if len(cells) == 1:
-        return np.zeros(len(xy), dtype=bool)
+    return stray_cells(cells, counts, gap_cells=gap_cells, share=share)[inverse.ravel()]
+
+
+def stray_cells(cells: np.ndarray, counts: np.ndarray, *, gap_cells: int = 4,
+                share: float = STRAY_SHARE) -> np.ndarray:
+    """Which occupied cells hold stray soundings (see :func:`stray_soundings`).
+
+    Parameters
+    ----------
+    cells : ndarray of int, shape (M, 2)
+        The occupied cells (column, row), each once.
+    counts : ndarray of int, shape (M,)
+        Soundings in each.
+    gap_cells, share
+        As :func:`stray_soundings`.
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+
+    Examples
+    --------
+    >>> stray_cells(np.array([[0, 0], [1, 0], [200, 0]]), np.array([500, 500, 3])).tolist()
+    [False, False, True]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(cells.astype(np.float64)).query_pairs(gap_cells + 0.5, output_type="ndarray")
+    if len(cells) <= 1:
+        return np.zeros(len(cells), dtype=bool)
+    pairs = cKDTree(np.asarray(cells, np.float64)).query_pairs(gap_cells + 0.5, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cells), len(cells)))
     n, group = connected_components(graph, directed=False)
     if n == 1:
-        return np.zeros(len(xy), dtype=bool)
+        return np.zeros(len(cells), dtype=bool)
     size = np.bincount(group, weights=counts, minlength=n)
-    stray_group = size < share * len(xy)
+    stray_group = size < share * float(np.sum(counts))
     stray_group[np.argmax(size)] = False
-    return stray_group[group[inverse]]
+    return stray_group[group]
 
 
 def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0, k: int = 1) -> float:

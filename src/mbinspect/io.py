@@ -33,7 +33,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -376,8 +376,10 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
     if crop is not None:
         cloud = cloud.subset(crop_mask(cloud.xyz, crop))
     pts = check_points(cloud.xyz, minimum=minimum, name="points")
+    notes: list[str] = []
+    if cloud.meta.get("strays_removed"):  # a tile of a survey: done once for the whole survey
+        return cloud, pts, notes
     stray = stray_soundings(pts)
-    notes = []
     if stray.any():
         rest = pts[~stray, :2]
         far = float(np.hypot(*(np.median(pts[stray, :2], axis=0) - np.median(rest, axis=0))))
@@ -458,9 +460,36 @@ def _read_las(path: Path) -> PointCloud:
         las = laspy.read(path)
     except Exception as exc:  # laspy raises many types for a broken file
         raise InputError(f"{path}: not a readable LAS/LAZ file ({exc})") from None
-    n = len(las.points)
-    if n == 0:
+    if len(las.points) == 0:
         raise InputError(f"{path}: the LAS file holds no points")
+    return _las_cloud(las, las.header, path)
+
+
+def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000) -> Iterator[PointCloud]:
+    """A LAS/LAZ file's points in clouds of at most ``chunk`` points, read as they are
+    needed: memory follows the chunk, not the file.
+
+    Raises
+    ------
+    InputError
+        A file laspy cannot read, named with the reason.
+    """
+    import laspy
+
+    p = Path(path)
+    try:
+        with laspy.open(p) as reader:
+            header = reader.header
+            for points in reader.chunk_iterator(chunk):
+                yield _las_cloud(points, header, p)
+    except InputError:
+        raise
+    except Exception as exc:  # laspy raises many types for a broken file
+        raise InputError(f"{p}: not a readable LAS/LAZ file ({exc})") from None
+
+
+def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
+    """A cloud from laspy points (a whole file or a chunk of one) and the file's header."""
     xyz = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
     dims = set(las.point_format.dimension_names)
     fields: dict[str, np.ndarray] = {}
@@ -481,7 +510,7 @@ def _read_las(path: Path) -> PointCloud:
         fields["intensity"] = np.asarray(fields.pop("intensity_db"), dtype=np.float64)
     crs = None
     try:
-        parsed = las.header.parse_crs()
+        parsed = header.parse_crs()
         crs = parsed.to_wkt() if parsed is not None else None
     except Exception:  # pyproj missing or no CRS: not an error
         crs = None

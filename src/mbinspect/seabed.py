@@ -112,7 +112,10 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
             raise ParameterError(f"{name}: {v} must be a positive number")
     if not 0 <= percentile <= 100:
         raise ParameterError(f"percentile: {percentile} must be within 0..100")
-    lo = np.array([pts[:, 0].min(), pts[:, 1].min()])
+    # the corner on a 10 m lattice of whole cells: a tile of a survey gets the very cells
+    # (and coarser cells of a few fine ones) that the whole survey gets
+    unit = cell * max(1, round(10.0 / cell))
+    lo = np.floor(np.array([pts[:, 0].min(), pts[:, 1].min()]) / unit) * unit
     ci, cj = cell_index(pts, lo[0], lo[1], cell)
     nx, ny = int(ci.max()) + 1, int(cj.max()) + 1
     key = ci * ny + cj

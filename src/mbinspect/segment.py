@@ -61,7 +61,7 @@ def normals(points: np.ndarray, *, k: int = 16, workers: int = -1) -> tuple[np.n
     return nrm, planarity
 
 
-def kmeans(points: np.ndarray, k: int, *, seed: int = 0, n_init: int = 10
+def kmeans(points: np.ndarray, k: int, *, seed: int | list[int] = 0, n_init: int = 10
            ) -> tuple[np.ndarray, np.ndarray]:
     """K-means with k-means++ seeding, best of ``n_init`` seeded runs.
 

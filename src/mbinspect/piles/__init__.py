@@ -40,7 +40,7 @@ Examples
 from .assess import assess_pile, other_method_piles
 from .centre import centre_method, top_coverage
 from .design import Design, apply_design, match_design, read_design
-from .elevate import elevated_points, intensity_threshold
+from .elevate import elevated_points, intensity_threshold, pile_thresholds
 from .frame import decide, fit_frames
 from .group import group_piles, jacket_groups
 from .intersect import intersection_method, side_coverage
@@ -67,6 +67,7 @@ __all__ = [
     "PileResult",
     "elevated_points",
     "intensity_threshold",
+    "pile_thresholds",
     "separate_piles",
     "stable_order",
     "split_top_side",

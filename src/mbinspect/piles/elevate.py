@@ -89,3 +89,57 @@ def intensity_threshold(cloud_int: np.ndarray | None, elevated: np.ndarray, near
     if np.median(cloud_int[elevated]) <= thr or np.median(cloud_int[near_seabed]) >= thr:
         return None
     return thr
+
+
+#: Seabed soundings within this many pile radii (plus 2 m) of a pile's centroid are its
+#: seabed for :func:`pile_thresholds`.
+RING_RADII = 6.0
+
+
+def pile_thresholds(cloud_int: np.ndarray | None, points: np.ndarray, candidates: np.ndarray,
+                    labels: np.ndarray, near_seabed: np.ndarray, radius: float
+                    ) -> dict[int, float | None]:
+    """Each pile's own Otsu backscatter threshold (:func:`intensity_threshold`) between its
+    soundings and the seabed around it (within :data:`RING_RADII` radii plus 2 m).
+
+    A threshold from each pile's own surroundings follows the backscatter where the pile
+    stands (gains differ between lines and along a swath) and does not depend on what
+    else the cloud holds: a pile in one tile of a survey gets the threshold it gets in the
+    whole survey.
+
+    Parameters
+    ----------
+    cloud_int : ndarray (N,) or None
+        Backscatter of every sounding.
+    points : ndarray, shape (N, 3)
+    candidates : ndarray of int
+        Rows of the soundings that ``labels`` label.
+    labels : ndarray of int
+        Pile label of each candidate (-1: none); pile id = label + 1.
+    near_seabed : ndarray of bool, shape (N,)
+    radius : float
+        Pile radius (m).
+
+    Returns
+    -------
+    dict
+        Pile id -> threshold or None.
+    """
+    out: dict[int, float | None] = {}
+    ids = [int(c) for c in np.unique(labels) if c >= 0]
+    if cloud_int is None or not ids:
+        return {c + 1: None for c in ids}
+    from scipy.spatial import cKDTree
+
+    ground = np.flatnonzero(near_seabed)
+    tree = cKDTree(points[ground, :2]) if len(ground) else None
+    for c in ids:
+        own = candidates[labels == c]
+        mask = np.zeros(len(points), bool)
+        mask[own] = True
+        near = np.zeros(len(points), bool)
+        if tree is not None:
+            centre = points[own, :2].mean(axis=0)
+            near[ground[tree.query_ball_point(centre, RING_RADII * radius + 2.0)]] = True
+        out[c + 1] = intensity_threshold(cloud_int, mask, near)
+    return out

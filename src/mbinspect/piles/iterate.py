@@ -16,7 +16,23 @@ from .measure import measure_pile, prune
 from .options import PileOptions
 from .results import PileMeasure, PileSegment
 
-__all__ = ["iterate"]
+__all__ = ["iterate", "pile_seed"]
+
+
+def pile_seed(seed: int, segment: PileSegment) -> int:
+    """A pile's own seed: from ``seed`` and the decimetre its soundings' centroid lies in
+    (modulo 100 m, so that a survey moved by whole hectometres keeps its seeds).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> seg = SimpleNamespace(points=np.array([[402000.03, 6000000.0, -9.0]]))
+    >>> pile_seed(0, seg) == pile_seed(0, seg) != pile_seed(1, seg)
+    True
+    """
+    c = np.asarray(segment.points, np.float64).mean(axis=0)
+    q = np.floor(c[:2] * 10.0).astype(np.int64) % 1000
+    return int(np.random.SeedSequence([int(seed), int(q[0]), int(q[1])]).generate_state(1)[0])
 
 
 def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray], options: PileOptions,
@@ -24,10 +40,13 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
             ) -> tuple[dict[int, PileMeasure], list[dict[str, Any]], dict[int, str]]:
     """Measure every pile until the spacings settle.
 
-    Each round measures every pile (:func:`~mbinspect.piles.measure_pile`, seeded with
-    ``options.seed + pile id``), records the centres and spacings, stops when every
-    spacing moved by less than ``options.delta`` since the last round (or after
-    ``options.max_iterations``), and otherwise prunes each pile's points to its models.
+    Each round measures every pile not yet settled (:func:`~mbinspect.piles.measure_pile`,
+    seeded by ``options.seed`` and the pile's own position, :func:`pile_seed`), records the
+    centres and spacings; a pile settles when its centre moved by less than half of
+    ``options.delta`` since the last round (so no spacing moves by ``delta``), else its
+    points are pruned to its models; the rounds stop when every pile has settled (or after
+    ``options.max_iterations``). Nothing a pile does depends on the other piles, so a pile
+    measured in one tile of a survey comes out as in the whole survey.
 
     Parameters
     ----------
@@ -67,16 +86,20 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
     fits: dict[int, PileMeasure] = {}
     iterations: list[dict[str, Any]] = []
     active = {pid: (s.top.copy(), s.side.copy()) for pid, s in segments.items()}
-    prev: dict[tuple[int, int], float] | None = None
     unmeasured: dict[int, str] = {}
     segments = dict(segments)
+    seeds = {pid: pile_seed(options.seed, seg) for pid, seg in segments.items()}
+    settled: set[int] = set()
     for it in range(1, options.max_iterations + 1):
+        last = {pid: (f.x, f.y) for pid, f in fits.items()}
         for pid, seg in list(segments.items()):
+            if pid in settled:
+                continue
             top_m, side_m = active[pid]
             normals = side_normals[pid][side_m[seg.side]] if side_m.any() else np.zeros((0, 3))
             try:
                 fits[pid] = measure_pile(seg, top_m, side_m, normals, options=options,
-                                         seed=options.seed + pid, previous=fits.get(pid))
+                                         seed=seeds[pid], previous=fits.get(pid))
             except DataError as exc:
                 unmeasured[pid] = str(exc)
                 del segments[pid]
@@ -89,15 +112,20 @@ def iterate(segments: dict[int, PileSegment], side_normals: dict[int, np.ndarray
             "spacings": {f"{a}-{b}": d for (a, b), d in current.items()},
         })
         report(0.3 + 0.6 * it / options.max_iterations)
-        change = max((abs(current[k] - prev[k]) for k in current), default=0.0) if prev else math.inf
-        if it > 1 and change < options.delta:
+        # each pile settles on its own when its centre moves by less than half of delta, so
+        # that no spacing changes by delta; a pile's rounds do not depend on the others
+        for pid in segments:
+            if pid in last and math.hypot(fits[pid].x - last[pid][0], fits[pid].y - last[pid][1]) \
+                    < options.delta / 2:
+                settled.add(pid)
+        if settled >= set(segments):
             break
-        prev = current
         for pid, seg in segments.items():
-            active[pid] = prune(seg, fits[pid], radius=options.radius, ks=options.ks,
-                                threshold=options.threshold)
+            if pid not in settled:
+                active[pid] = prune(seg, fits[pid], radius=options.radius, ks=options.ks,
+                                    threshold=options.threshold)
     for pid, seg in segments.items():  # the errors each line shares, from their disagreement
         top_m, side_m = active[pid]
         normals = side_normals[pid][side_m[seg.side]] if side_m.any() else np.zeros((0, 3))
-        fits[pid] = line_jackknife(seg, top_m, side_m, normals, fits[pid], options, options.seed + pid)
+        fits[pid] = line_jackknife(seg, top_m, side_m, normals, fits[pid], options, seeds[pid])
     return fits, iterations, unmeasured

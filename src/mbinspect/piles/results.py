@@ -125,6 +125,7 @@ class PileFit:
     alternatives: dict[str, dict[str, float]] = field(default_factory=dict)
     group: int = 1
     line_sigma_xy: float = math.nan
+    sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``piles.json``; the other method's centre under ``methods``."""
@@ -138,6 +139,7 @@ class PileFit:
         }
         if self.alternatives:
             d["methods"] = self.alternatives
+        d["sources"] = list(self.sources)
         return to_jsonable(d)
 
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -13,10 +13,11 @@ from ..errors import DataError
 from ..grid import sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
+from ..survey.trace import sources
 from .accept import rejected_record, rejection_reasons
 from .assess import assess_pile, other_method_piles
 from .design import Design, apply_design
-from .elevate import elevated_points, intensity_threshold
+from .elevate import elevated_points, pile_thresholds
 from .frame import fit_frames
 from .group import group_piles
 from .iterate import iterate
@@ -26,7 +27,7 @@ from .separate import separate_piles
 from .space import spacings
 from .split import segment_piles
 
-__all__ = ["locate_piles"]
+__all__ = ["locate_piles", "measure_piles", "relate_piles", "MeasuredPiles"]
 
 
 def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = None, *,
@@ -77,6 +78,49 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     True
     """
     opts = PileOptions(**overrides) if options is None else options.replace(**overrides)
+    m = measure_piles(data, opts, progress=progress)
+    if not m.piles:
+        raise DataError("no pile found: " + "; ".join(
+            f"the candidate near ({r['x']:.1f}, {r['y']:.1f}) is not a pile ({', '.join(r['reasons'])})"
+            for r in m.rejected))
+    parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
+                  "input": {"source": m.cloud.source, "n_points": len(m.cloud), "crs": m.cloud.crs},
+                  "software": f"mbinspect {__version__}"}
+    result = relate_piles(m.piles, m.covs, opts, design=design, parameters=parameters,
+                          warnings=list(m.warnings), rejected=list(m.rejected), measured=m)
+    if progress is not None:
+        progress(1.0)
+    return result
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredPiles:
+    """The piles of a cloud measured and judged, before design, grouping and spacing
+    (:func:`measure_piles`); ``covs`` holds each pile's plan covariance by id."""
+
+    piles: tuple[PileFit, ...]
+    covs: dict[int, np.ndarray]
+    rejected: tuple[dict[str, Any], ...]
+    warnings: tuple[str, ...]
+    cloud: PointCloud
+    segments: dict[int, Any] = field(default_factory=dict)
+    seabed: Any = None
+    cylinders: dict[int, Any] = field(default_factory=dict)
+    segmentation: dict[str, Any] = field(default_factory=dict)
+    iterations: tuple[dict[str, Any], ...] = ()
+
+
+def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
+                  progress: Callable[[float], None] | None = None) -> MeasuredPiles:
+    """The first stages of :func:`locate_piles`: every standing pile measured, numbered
+    from 1 in stable order, each with its sources; candidates that are not piles or cannot
+    be measured in ``rejected`` with the reasons. On one tile of a survey as on a whole one.
+
+    Raises
+    ------
+    DataError
+        Soundings too sparse for the radius, no point above the seabed, no candidate.
+    """
     cloud, pts, notes = pipeline_input(data, crop=opts.crop)
     spacing = sounding_spacing(pts, seed=opts.seed)
     if spacing > opts.radius:
@@ -101,51 +145,76 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     if not (labels >= 0).any():
         raise DataError("no pile found among the points above the seabed")
     report(0.3)
-    thr = intensity_threshold(intensity, elevated, np.abs(height) < GROUND_BAND) \
-        if intensity is not None else None
+    thr = pile_thresholds(intensity, pts, eidx, labels, np.abs(height) < GROUND_BAND, opts.radius)
     segs, side_n, seg_info = segment_piles(
         pts[eidx], labels, opts, intensity=None if intensity is None else intensity[eidx],
         intensity_threshold=thr, ping=None if ping is None else ping[eidx],
         line=None if line is None else line[eidx])
     fits, iterations, unmeasured = iterate(segs, side_n, opts, report)
-    piles = tuple(assess_pile(pid, fits[pid], opts) for pid in sorted(fits))
+    files = cloud.meta.get("files") or [cloud.source or "(array)"]
+    piles = tuple(replace(assess_pile(pid, fits[pid], opts),
+                          sources=sources(eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
     piles, kept, rejected = _standing(piles, seabed, opts)
     for pid, why in unmeasured.items():
         c = segs[pid].points.mean(axis=0)
         rejected.append({"x": float(c[0]), "y": float(c[1]), "z": float(segs[pid].points[:, 2].max()),
                          "top_height": None, "tilt_deg": None, "radius_fitted": None,
                          "reasons": [f"not measurable: {why.split(': ', 1)[-1]}"]})
-    if not piles:
-        raise DataError("no pile found: " + "; ".join(
-            f"the candidate near ({r['x']:.1f}, {r['y']:.1f}) is not a pile ({', '.join(r['reasons'])})"
-            for r in rejected))
     warnings += [f"{'candidate' if r['reasons'][0].startswith('not measurable') else 'not a pile'} near "
                  f"({r['x']:.1f}, {r['y']:.1f}): {', '.join(r['reasons'])}" for r in rejected]
-    fits = {new: fits[old] for new, old in kept.items()}
-    segs = {new: segs[old] for new, old in kept.items() if old in segs}
-    seg_info = {new: seg_info[old] for new, old in kept.items() if old in seg_info}
-    piles, remap, warn = apply_design(piles, design)
-    piles = group_piles(piles, design, mode=opts.groups)
-    covs = {remap[k]: fits[k].cov for k in fits}
-    pairs = spacings(piles, covs, design, opts.tolerance, all_pairs=opts.all_pairs,
+    return MeasuredPiles(
+        piles, {new: fits[old].cov for new, old in kept.items()}, tuple(rejected), tuple(warnings), cloud,
+        {new: segs[old] for new, old in kept.items() if old in segs}, seabed,
+        {new: fits[old].cylinder for new, old in kept.items() if fits[old].cylinder is not None},
+        {"intensity_threshold": {new: thr.get(old) for new, old in kept.items()},
+         "piles": {new: seg_info[old] for new, old in kept.items() if old in seg_info}},
+        tuple(iterations))
+
+
+def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: PileOptions, *,
+                 design: Design | None, parameters: dict[str, Any], warnings: list[str],
+                 rejected: list[dict[str, Any]], measured: MeasuredPiles | None = None) -> PileResult:
+    """The last stages of :func:`locate_piles`, once every pile of a survey is measured:
+    matched to the design, grouped into jackets, every spacing and frame; on a tiled
+    survey, after the tiles' piles are merged.
+
+    Parameters
+    ----------
+    piles : sequence of PileFit
+        Numbered from 1.
+    covs : dict
+        Plan covariance of each pile by id.
+    opts : PileOptions
+    design : Design or None
+    parameters : dict
+        What the result records.
+    warnings : list of str
+    rejected : list of dict
+    measured : MeasuredPiles, optional
+        The segments, seabed and cylinders, for figures (a whole-cloud run).
+    """
+    piles_t, remap, warn = apply_design(tuple(piles), design)
+    piles_t = group_piles(piles_t, design, mode=opts.groups)
+    covs = {remap[k]: v for k, v in covs.items()}
+    pairs = spacings(piles_t, covs, design, opts.tolerance, all_pairs=opts.all_pairs,
                      method="centre" if opts.method == "centre" else "intersection")
-    frames = fit_frames(piles, covs, design, tolerance=opts.frame_tolerance)
+    frames = fit_frames(piles_t, covs, design, tolerance=opts.frame_tolerance)
     others: tuple[PileFit, ...] = ()
     other_pairs: tuple[Spacing, ...] = ()
     if opts.method == "both":
-        others, alt_covs, piles = other_method_piles(piles, opts.radius)
+        others, alt_covs, piles_t = other_method_piles(piles_t, opts.radius)
         other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre",
                                all_pairs=opts.all_pairs)
-    report(1.0)
-    parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
-                  "input": {"source": cloud.source, "n_points": len(pts), "crs": cloud.crs},
-                  "software": f"mbinspect {__version__}"}
-    return PileResult(piles, pairs, tuple(iterations), parameters, tuple(warnings + warn),
-                      {remap[k]: v for k, v in segs.items()}, seabed,
-                      {remap[k]: f.cylinder for k, f in fits.items() if f.cylinder is not None},
+    m = measured
+    seg_info = m.segmentation if m is not None else {"intensity_threshold": {}, "piles": {}}
+    return PileResult(piles_t, pairs, tuple(m.iterations if m else ()), parameters, tuple(warnings + warn),
+                      {remap[k]: v for k, v in m.segments.items()} if m else {},
+                      m.seabed if m else None,
+                      {remap[k]: v for k, v in m.cylinders.items()} if m else {},
                       other_pairs, others,
-                      {"intensity_threshold": thr,
-                       "piles": {str(remap[k]): v for k, v in seg_info.items()}},
+                      {"intensity_threshold": {str(remap[k]): v
+                                               for k, v in seg_info["intensity_threshold"].items()},
+                       "piles": {str(remap[k]): v for k, v in seg_info["piles"].items()}},
                       frames, tuple(rejected))
 
 

@@ -91,7 +91,8 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
 
 
 def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, *,
-                  intensity: np.ndarray | None = None, intensity_threshold: float | None = None,
+                  intensity: np.ndarray | None = None,
+                  intensity_threshold: float | dict[int, float | None] | None = None,
                   ping: np.ndarray | None = None, line: np.ndarray | None = None
                   ) -> tuple[dict[int, PileSegment], dict[int, np.ndarray], dict[int, dict[str, Any]]]:
     """Every pile's points split into top and side (:func:`split_top_side`).
@@ -106,8 +107,9 @@ def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, 
         ``radius``, ``window``, ``step`` and ``segmentation``.
     intensity, ping, line : ndarray (N,), optional
         Backscatter, ping number and survey line of each point.
-    intensity_threshold : float, optional
-        Points darker than this are dropped (the joint segmentation only).
+    intensity_threshold : float or dict, optional
+        Points darker than this (one value, or pile id -> value) are dropped (the joint
+        segmentation only).
 
     Examples
     --------
@@ -139,7 +141,8 @@ def segment_piles(points: np.ndarray, labels: np.ndarray, options: PileOptions, 
         top, side, info[c + 1] = split_top_side(
             p, radius=options.radius, window=options.window, step=options.step,
             intensity=None if intensity is None else intensity[idx],
-            intensity_threshold=intensity_threshold, paper=(options.segmentation == "paper"),
+            intensity_threshold=intensity_threshold.get(c + 1) if isinstance(intensity_threshold, dict)
+            else intensity_threshold, paper=(options.segmentation == "paper"),
             point_normals=(nrm, planarity))
         segs[c + 1] = PileSegment(p, top, side, None if ping is None else ping[idx],
                                   None if line is None else line[idx])

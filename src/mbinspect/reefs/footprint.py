@@ -74,14 +74,17 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     True
     """
     rp = points[is_reef, :2]
-    lo = rp.min(axis=0) - reach
-    hi = rp.max(axis=0) + reach
+    # whole cells from (0, 0), as in any tile, and room for the whole ring of soundings
+    # around the candidates (``wide``): a raster that cut it would see fewer of them
+    pad = 2 * reach + 3 * cell
+    lo = np.floor((rp.min(axis=0) - pad) / cell) * cell
+    hi = rp.max(axis=0) + pad
     nx = int(math.ceil((hi[0] - lo[0]) / cell))
     ny = int(math.ceil((hi[1] - lo[1]) / cell))
     # only cells within ``reach`` of a reef point are candidates
     occ = np.zeros((ny, nx), dtype=bool)
-    ij = np.floor((rp - lo) / cell).astype(np.int64)
-    occ[np.clip(ij[:, 1], 0, ny - 1), np.clip(ij[:, 0], 0, nx - 1)] = True
+    oi, oj = cell_index(rp, lo[0], lo[1], cell)
+    occ[np.clip(oj, 0, ny - 1), np.clip(oi, 0, nx - 1)] = True
     r = max(1, int(math.ceil(reach / cell)))
     occ = grow(occ, r)
     cj, ci = np.nonzero(occ)
@@ -92,13 +95,13 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     idx = np.flatnonzero((pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny))
     idx = idx[wide[pj[idx], pi[idx]]]
     tree = cKDTree(points[idx, :2] - lo, balanced_tree=False, compact_nodes=False)
-    # own and bridge are in units of the soundings' typical spacing here (median distance
-    # to the nearest other sounding, from a seeded sample)
-    sample = idx[np.random.default_rng(seed).permutation(len(idx))[:20_000]]
-    dn, _ = tree.query(points[sample, :2] - lo, k=2)
-    spacing = float(np.median(dn[:, 1])) if len(sample) > 1 else cell
-    own, bridge = own * spacing, bridge * spacing
-    d, k = tree.query(centres - lo, k=1, distance_upper_bound=reach, workers=-1)
+    # own and bridge are in units of the soundings' typical spacing (median distance to the
+    # nearest other sounding), measured around each connected candidate region on its own:
+    # a region's answer does not depend on what else the cloud (or the tile) holds
+    comp, n_comp = ndimage.label(occ, structure=np.ones((3, 3), bool))
+    spacing = _region_spacing(points, idx, tree, lo, comp, n_comp, cell)
+    own_c, bridge_c = own * spacing, bridge * spacing
+    d, k = _nearest(tree, centres - lo, reach, idx)
     nearest = np.full((ny, nx), -1, dtype=np.int64)
     ok = np.isfinite(d)
     nearest[cj[ok], ci[ok]] = idx[k[ok]]
@@ -108,7 +111,7 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     # alone would spread the reef into its shadow: a reef cell must also lie within
     # ``own`` m of a reef sounding; enclosed gaps between pings are filled back
     close = np.zeros((ny, nx), dtype=bool)
-    close[cj[ok], ci[ok]] = d[ok] <= own
+    close[cj[ok], ci[ok]] = d[ok] <= own_c[comp[cj[ok], ci[ok]]]
     if height is not None and wall > 0:
         # a sounding on a reef's side wall marks the edge itself: of the cells nearest to
         # it, only those on the reef's side of it (up the height gradient) are reef
@@ -130,12 +133,84 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
         close[cj[rows[on_wall]], ci[rows[on_wall]]] = inward[on_wall]
     core = reef & close
     # bridge the gaps between pings inside a reef; closing does not grow outer edges
-    rc = max(1, int(round(bridge / cell)))
-    yy, xx = np.mgrid[-rc:rc + 1, -rc:rc + 1]
-    disk = xx * xx + yy * yy <= rc * rc
-    closed = ndimage.binary_closing(np.pad(core, rc + 1), structure=disk)[rc + 1:-rc - 1, rc + 1:-rc - 1]
+    closed = np.zeros_like(core)
+    for c, box in enumerate(ndimage.find_objects(comp), start=1):
+        if box is None:
+            continue
+        rc = max(1, int(round(bridge_c[c] / cell)))
+        yy, xx = np.mgrid[-rc:rc + 1, -rc:rc + 1]
+        sub = np.pad(core[box] & (comp[box] == c), rc + 1)
+        disk = xx * xx + yy * yy <= rc * rc
+        done = ndimage.binary_closing(sub, structure=disk)[rc + 1:-rc - 1, rc + 1:-rc - 1]
+        closed[box] |= done & (comp[box] == c)
     filled = ndimage.binary_fill_holes(closed & reef) & reef
     return filled, nearest, float(lo[0]), float(lo[1])
+
+
+def _nearest(tree: cKDTree, xy: np.ndarray, reach: float, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each cell centre's nearest sounding within ``reach``; between two soundings equally
+    near (to 1 nm: millimetre coordinates make such ties), the one first in the cloud, so
+    that the answer does not depend on the tree or the frame."""
+    if len(rows) < 2:
+        return tree.query(xy, k=1, distance_upper_bound=reach, workers=-1)
+    d2, k2 = tree.query(xy, k=2, distance_upper_bound=reach, workers=-1)
+    d, k = d2[:, 0], k2[:, 0]
+    far = ~np.isfinite(d2[:, 1])
+    tie = ~far & (np.where(far, 1.0, d2[:, 1]) - np.where(far, 0.0, d2[:, 0]) < 1e-9)
+    if tie.any():
+        swap = tie & (rows[np.minimum(k2[:, 1], len(rows) - 1)] < rows[np.minimum(k2[:, 0], len(rows) - 1)])
+        k = np.where(swap, k2[:, 1], k)
+    return d, k
+
+
+#: Side (m) of the plan blocks over which the sounding spacing around reef candidates is
+#: counted, and how many blocks each way a candidate region looks (10 to 15 m).
+SPACING_BLOCK = 5.0
+SPACING_REACH = 2
+#: Millimetre bins of that count (spacings beyond 1 m count as 1 m).
+SPACING_BINS = 1000
+
+
+def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.ndarray, comp: np.ndarray,
+                    n: int, cell: float) -> np.ndarray:
+    """The median distance to the nearest other sounding, over the soundings near reef
+    points (``rows``) within :data:`SPACING_REACH` blocks of :data:`SPACING_BLOCK` m of
+    each candidate region (index 1..n of ``comp``; 0 gets ``cell``), to the millimetre.
+    (:data:`SPACING_REACH` blocks: up to 15 m.)
+
+    Blocks lie on a lattice from (0, 0) and distances are counted in millimetre bins with a
+    summed-area table, so that a region's spacing is exact, deterministic and the same in
+    any tile of a survey whose buffer holds its neighbourhood."""
+    out = np.full(n + 1, cell)
+    if len(rows) < 2 or n == 0:
+        return out
+    dn, _ = tree.query(points[rows, :2] - lo, k=2)
+    mm = np.minimum(np.round(dn[:, 1] * 1000.0).astype(np.int64), SPACING_BINS - 1)
+    bi, bj = cell_index(points[rows], 0.0, 0.0, SPACING_BLOCK)
+    bi0, bj0 = int(bi.min()), int(bj.min())
+    bi, bj = bi - bi0, bj - bj0
+    nbx, nby = int(bi.max()) + 1, int(bj.max()) + 1
+    hist = np.zeros((nbx + 1, nby + 1, SPACING_BINS), np.int32)
+    np.add.at(hist, (bi + 1, bj + 1, mm), 1)
+    table = hist.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)
+    ny, nx = comp.shape
+    cj, ci = np.nonzero(comp)
+    labels = comp[cj, ci]
+    cx = lo[0] + (np.bincount(labels, ci, n + 1)[1:] / np.maximum(np.bincount(labels, None, n + 1)[1:], 1)
+                  + 0.5) * cell
+    cy = lo[1] + (np.bincount(labels, cj, n + 1)[1:] / np.maximum(np.bincount(labels, None, n + 1)[1:], 1)
+                  + 0.5) * cell
+    gi, gj = cell_index(np.column_stack([cx, cy]), 0.0, 0.0, SPACING_BLOCK)
+    a0 = np.clip(gi - bi0 - SPACING_REACH, 0, nbx)
+    a1 = np.clip(gi - bi0 + SPACING_REACH + 1, 0, nbx)
+    b0 = np.clip(gj - bj0 - SPACING_REACH, 0, nby)
+    b1 = np.clip(gj - bj0 + SPACING_REACH + 1, 0, nby)
+    counts = table[a1, b1] - table[a0, b1] - table[a1, b0] + table[a0, b0]  # (n, bins)
+    total = counts.sum(axis=1)
+    half = np.argmax(counts.cumsum(axis=1) >= (total[:, None] + 1) // 2, axis=1)
+    ok = total >= 2
+    out[1:][ok] = half[ok] / 1000.0
+    return out
 
 
 def label_parts(reef_mask: np.ndarray, *, cell: float, link: float

@@ -60,7 +60,8 @@ class ReefOptions(Options):
                                    check="angle")
     statistical_k: int = option(8, help="statistical filter neighbours on the reef points (0: off)",
                                 check="whole", metavar="K")
-    statistical_ratio: float = option(3.0, help="statistical filter: standard deviations kept",
+    statistical_ratio: float = option(3.0, help="statistical filter: standard deviations kept (mean "
+                                      "and spread over the reef points within 5-10 m)",
                                       check="positive", metavar="R")
     seabed: str = option("auto", help="RANSAC plane, local grid, or the plane where it fits (auto)",
                          choices="seabed")

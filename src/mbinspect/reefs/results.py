@@ -38,6 +38,7 @@ class Reef:
     design_scale: float = math.nan
     design_bearing_deg: float = math.nan
     design_misfit: float = math.nan
+    sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``reefs.json`` (``outline``: the footprint polygon, m)."""
@@ -46,6 +47,7 @@ class Reef:
                                              "envelope_volume", "n_points", "group", "design",
                                              "design_scale", "design_bearing_deg", "design_misfit")}
         d["outline"] = [list(v) for v in self.outline]
+        d["sources"] = list(self.sources)
         return to_jsonable(d)
 
 

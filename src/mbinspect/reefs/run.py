@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from .. import __version__
 from ..errors import DataError, ParameterError
-from ..grid import sounding_spacing
+from ..grid import cell_index, sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
+from ..survey.trace import sources
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .footprint import Raster
@@ -165,7 +167,11 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     others: list[dict[str, Any]] = []
     used_area = None
     if is_reef.any() and local:
-        reefs, others, used_area = single_reefs(kept, is_reef, surf, h_all, opts, ping=ping)
+        reefs, others, used_area, members = single_reefs(kept, is_reef, surf, h_all, opts, ping=ping)
+        rows = np.flatnonzero(keep) if ground.kept is None else np.flatnonzero(keep)[ground.kept]
+        files = cloud.meta.get("files") or [cloud.source or "(array)"]
+        reefs = [replace(r, sources=sources(rows[m], cloud.fields, files))
+                 for r, m in zip(reefs, members, strict=True)]
     elif is_reef.any():
         reefs, others = paper_clusters(kept, is_reef, surf, eps=opts.cluster_eps, min_area=opts.min_area)
         used_area = math.nan
@@ -188,7 +194,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
 
 def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
                  options: ReefOptions, ping: np.ndarray | None = None
-                 ) -> tuple[list[Reef], list[dict[str, Any]], float]:
+                 ) -> tuple[list[Reef], list[dict[str, Any]], float, list[np.ndarray]]:
     """The single reefs among the reef points, each measured (our method).
 
     Footprints split into single reefs (:func:`split_reefs`), each measured
@@ -216,7 +222,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     >>> from mbinspect.reefs import ReefOptions, fit_seabed, reef_points
     >>> seabed, _ = fit_seabed(sim.cloud.xyz)
     >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
-    >>> reefs, others, area = single_reefs(sim.cloud.xyz, is_reef, seabed, height, ReefOptions())
+    >>> reefs, others, area, members = single_reefs(sim.cloud.xyz, is_reef, seabed, height, ReefOptions())
     >>> len(reefs)
     4
 
@@ -228,6 +234,8 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         Objects smaller than ``min_area``: position, height, area, top, points.
     reef_area : float
         The single-reef area used (m²).
+    members : list of ndarray of int
+        Each reef's soundings: the reef points (rows of ``points``) in its footprint.
     """
     parts, small, raster, used_area = split_reefs(points, is_reef, cell=options.cell,
                                                   reef_area=options.reef_area, height=height,
@@ -249,14 +257,32 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     for p in small:
         others.append(_other(measure_reef(points, p, raster, seabed, is_reef=is_reef),
                              f"smaller than `min_area` {options.min_area:g} m²"))
-    kept = []
+    kept, kept_parts = [], []
     for r, p in zip(reefs, parts, strict=True):
         why = _not_a_reef(r, p, raster, is_reef, ping, options)
         if why:
             others.append(_other(r, why))
         else:
             kept.append(r)
-    return kept, others, used_area
+            kept_parts.append(p)
+    return kept, others, used_area, _members(points, is_reef, raster, kept_parts)
+
+
+def _members(points: np.ndarray, is_reef: np.ndarray, raster: Raster, parts: list[np.ndarray]
+             ) -> list[np.ndarray]:
+    """The reef points inside each footprint (flat raster cells), as rows of ``points``."""
+    ny, nx = raster.labels.shape
+    owner = np.full(ny * nx, -1, np.int64)
+    for k, p in enumerate(parts):
+        owner[p] = k
+    rows = np.flatnonzero(is_reef)
+    i, j = cell_index(points[rows], raster.x0, raster.y0, raster.cell)
+    inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+    who = np.full(len(rows), -1, np.int64)
+    who[inside] = owner[j[inside] * nx + i[inside]]
+    order = np.argsort(who, kind="stable")
+    bounds = np.searchsorted(who[order], np.arange(len(parts) + 1))
+    return [rows[order[bounds[k]:bounds[k + 1]]] for k in range(len(parts))]
 
 
 def _other(reef: Reef, reason: str) -> dict[str, Any]:

@@ -15,8 +15,17 @@ from .footprint import Raster, label_parts, nearest_label_raster
 __all__ = ["split_reefs", "split_large", "local_reef_area", "merge_fragments", "row_ends", "diameter"]
 
 
+#: Fewest parts of at least ``min_area`` from which a single-reef area is learnt (fewer:
+#: no part is split, unless ``reef_area`` is given).
+LEARN_PARTS = 5
+
+#: Single-reef areas are learnt from the parts within this many metres (a tiled survey reads
+#: at least this far beyond each tile).
+AREA_RADIUS = 25.0
+
+
 def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float, overall: float,
-                     radius: float = 25.0, min_parts: int = 5, among: np.ndarray | None = None
+                     radius: float = AREA_RADIUS, min_parts: int = 5, among: np.ndarray | None = None
                      ) -> np.ndarray:
     """Single-reef area near each part: the median area of the parts within ``radius`` m.
 
@@ -260,8 +269,8 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     >>> seabed, _ = fit_seabed(sim.cloud.xyz)
     >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
     >>> reefs, others, raster, area = split_reefs(sim.cloud.xyz, is_reef, height=height)
-    >>> len(reefs), bool(2.0 < area < 6.0)
-    (4, True)
+    >>> len(reefs), area  # four reefs are too few to learn a single reef's area from
+    (4, nan)
 
     Returns
     -------
@@ -282,7 +291,9 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     big = areas >= min_area
     given_area = reef_area
     if reef_area is None:
-        reef_area = float(np.median(areas[big])) if big.any() else math.nan
+        # learnt from a few reefs at least: the median of two reefs of two kinds would
+        # split the larger in two
+        reef_area = float(np.median(areas[big])) if big.sum() >= LEARN_PARTS else math.nan
         near_area = local_reef_area(parts, areas, nx, cell, reef_area, among=big)
     else:
         near_area = np.full(len(parts), reef_area)
@@ -293,7 +304,7 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     local_area = local_reef_area(big_parts, areas[big], nx, cell, reef_area) if given_area is None \
         else np.full(len(big_parts), reef_area)
     reefs = split_large(big_parts, areas[big], local_area, nx=nx, cell=cell, split_factor=split_factor,
-                        seed=seed)
+                        seed=seed, origin=(int(round(x0 / cell)), int(round(y0 / cell))))
     labels = np.zeros(ny * nx, dtype=np.int64)
     for i, p in enumerate(reefs):
         labels[p] = i + 1
@@ -301,9 +312,11 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
 
 
 def split_large(parts: list[np.ndarray], areas: np.ndarray, reef_area: np.ndarray, *, nx: int, cell: float,
-                split_factor: float = 1.5, seed: int = 0) -> list[np.ndarray]:
+                split_factor: float = 1.5, seed: int = 0, origin: tuple[int, int] = (0, 0)
+                ) -> list[np.ndarray]:
     """Parts larger than ``split_factor`` single reefs split into ``round(area / reef_area)``
-    reefs by K-means on their cells (seeded ``seed``, ``seed + 1``... in order).
+    reefs by K-means on their cells (seeded by ``seed`` and the part's first cell counted
+    from (0, 0), ``origin`` being the raster's corner in cells).
 
     Parameters
     ----------
@@ -331,15 +344,18 @@ def split_large(parts: list[np.ndarray], areas: np.ndarray, reef_area: np.ndarra
         The single reefs' cells.
     """
     reefs: list[np.ndarray] = []
-    rng_seed = seed
     for p, a, ra in zip(parts, areas, reef_area, strict=True):
         n = max(2, int(round(a / ra))) if math.isfinite(ra) and a > split_factor * ra else 1
         if n <= 1:
             reefs.append(p)
             continue
         cj, ci = np.divmod(p, nx)
-        xy = np.column_stack([ci, cj]).astype(np.float64) * cell
-        lab_k, _ = kmeans(xy, n, seed=rng_seed)
-        rng_seed += 1
+        # seeded by the part's own first cell, counted from (0, 0) modulo 1,000 cells: the
+        # same part gets the same split in any tile, whatever else the cloud holds, and
+        # wherever a survey moved by a whole number of 1,000 cells puts it
+        first = int(np.argmin(p))
+        own_seed = [seed, (int(origin[0]) + int(ci[first])) % 1000, (int(origin[1]) + int(cj[first])) % 1000]
+        xy = np.column_stack([ci - ci.min(), cj - cj.min()]).astype(np.float64) * cell
+        lab_k, _ = kmeans(xy, n, seed=own_seed)
         reefs += [p[lab_k == j] for j in range(n) if (lab_k == j).any()]
     return reefs

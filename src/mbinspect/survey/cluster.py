@@ -1,0 +1,118 @@
+"""Where the tiles run: in this process, on a local Dask cluster sized to the machine, or on
+a scheduler's cluster; the progress over tasks with the time left."""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+from ..errors import ParameterError
+
+__all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text"]
+
+#: Progress callback: tasks done, tasks in all, seconds left (None before the first is done).
+Progress = Callable[[int, int, float | None], None]
+
+
+def machine_memory() -> int:
+    """The machine's physical memory in bytes."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # not POSIX: assume 8 GB
+        return 8 << 30
+
+
+@contextmanager
+def dask_client(*, scheduler: str | None = None, workers: int | None = None,
+                memory_per_worker: float | None = None) -> Iterator[Any]:
+    """A Dask client: on the scheduler at ``scheduler`` (``tcp://host:port``), else on a
+    local cluster of ``workers`` processes (default: one per core) of one thread each,
+    closed on leaving (also on Ctrl-C).
+
+    Parameters
+    ----------
+    scheduler : str, optional
+    workers : int, optional
+    memory_per_worker : float, optional
+        Bytes a local worker may use before Dask pauses and restarts it.
+    """
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="15s")
+        except (OSError, TimeoutError) as exc:
+            raise ParameterError(f"scheduler: {scheduler}: cannot connect ({exc}); expected the address "
+                                 "of a running Dask scheduler, tcp://HOST:PORT", option="scheduler") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = workers or os.cpu_count() or 1
+    memory = memory_per_worker or machine_memory() * 0.8 / n
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, memory_limit=int(memory),
+                           dashboard_address=None, silence_logs=logging.ERROR, host="127.0.0.1")
+    client = Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()
+
+
+def map_tasks(fn: Callable[..., Any], items: Sequence[Any], *, client: Any = None,
+              progress: Progress | None = None, retries: int = 2, **kwargs: Any) -> list[Any]:
+    """``[fn(item, **kwargs) for item in items]``, on ``client``'s cluster when given.
+
+    A task whose worker dies is run again elsewhere by the scheduler; a task that raises
+    is retried ``retries`` times, then its error is raised here. Results come back in the
+    order of ``items``.
+    """
+    total = len(items)
+    start = time.perf_counter()
+
+    def tell(done: int) -> None:
+        if progress is not None:
+            took = time.perf_counter() - start
+            progress(done, total, took / done * (total - done) if done else None)
+
+    tell(0)
+    if client is None:
+        out = []
+        for k, item in enumerate(items):
+            out.append(fn(item, **kwargs))
+            tell(k + 1)
+        return out
+    from dask.distributed import as_completed
+
+    futures = [client.submit(fn, item, pure=False, retries=retries, **kwargs) for item in items]
+    try:
+        for done, _ in enumerate(as_completed(futures), start=1):
+            tell(done)
+        return list(client.gather(futures))
+    finally:
+        for f in futures:
+            f.release()
+
+
+def eta_text(seconds: float | None) -> str:
+    """``about 2 min 10 s left``.
+
+    Examples
+    --------
+    >>> eta_text(130.4), eta_text(None), eta_text(3.2)
+    ('about 2 min 10 s left', 'estimating the time left', 'about 3 s left')
+    """
+    if seconds is None:
+        return "estimating the time left"
+    s = int(round(seconds))
+    if s >= 3600:
+        return f"about {s // 3600} h {s % 3600 // 60} min left"
+    if s >= 60:
+        return f"about {s // 60} min {s % 60} s left"
+    return f"about {s} s left"

@@ -1,0 +1,406 @@
+"""A whole survey through a pipeline: :func:`run_survey`.
+
+Small surveys are read whole and run in memory. A survey larger than ``memory_limit`` (or
+with ``tiled``) is streamed file by file into tiles (:func:`~mbinspect.survey.tiles.bin_file`),
+each tile with its buffer is run through the pipeline on its own (in this process or on
+Dask), each object is kept by the tile holding its centre, and the kept objects are merged
+once: reefs numbered and grouped, piles renumbered, grouped into jackets and spaced.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..errors import DataError
+from ..grid import stray_cells
+from ..io import PointCloud, format_from_path
+from ..options import Options, option
+from ..reefs.detect import STAT_BLOCK, STAT_REACH
+from ..reefs.footprint import SPACING_BLOCK, SPACING_REACH
+from ..reefs.split import AREA_RADIUS
+from .cluster import Progress, dask_client, machine_memory, map_tasks
+from .inputs import read_survey
+from .tiles import STRAY_CELL, FileBins, TilePlan, bin_file, load_tile
+
+__all__ = ["SurveyOptions", "SurveyRun", "run_survey", "estimate_soundings", "BYTES_PER_SOUNDING"]
+
+#: Peak memory of the in-memory pipelines per sounding (bytes): 1.69 GiB for 10 M soundings
+#: from NPZ, 4.02 GiB from ASCII (benchmarks/RESULTS.md), with a margin.
+BYTES_PER_SOUNDING = 400
+
+#: Soundings a tile aims at when its size is left to the survey.
+TILE_SOUNDINGS = 4_000_000
+
+
+@dataclass(frozen=True)
+class SurveyOptions(Options):
+    """How a survey is run: in memory or in tiles, and where the tiles run."""
+
+    tiled: bool = option(False, help="process in tiles even when the survey fits in memory")
+    tile_size: float | None = option(None, unit="m", check="positive",
+                                     help="tile side (none: about 4 M soundings per tile)")
+    memory_limit: float | None = option(None, unit="GB", check="positive",
+                                        help="tile the survey when reading it whole would need more "
+                                             "(none: half the machine's memory)")
+    workers: int | None = option(None, check="count", help="local Dask workers (none: one per core)")
+    scheduler: str | None = option(None, help="a running Dask scheduler, tcp://HOST:PORT (none: a local "
+                                              "cluster)")
+    chunk: int = option(2_000_000, check="count", cli=False, help="soundings per chunk read")
+
+
+@dataclass(frozen=True, eq=False)
+class SurveyRun:
+    """What :func:`run_survey` returns: the pipeline's result, the soundings for figures
+    (all of them in memory; a thinned plan sample when tiled) and how it ran."""
+
+    result: Any
+    points: np.ndarray
+    tiled: bool
+    tiles: int = 1
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+
+def estimate_soundings(paths: Sequence[Path], fmt: str | None = None) -> int:
+    """Soundings in the files: exact for LAS/LAZ (the header), from the size otherwise."""
+    total = 0
+    per_byte = {"xyz": 1 / 30, "npz": 1 / 28, "ply": 1 / 28, "gsf": 1 / 12, "kmall": 1 / 20, "all": 1 / 16}
+    for p in paths:
+        kind = format_from_path(p, fmt)
+        if kind == "las":
+            import laspy
+
+            with laspy.open(p) as r:
+                total += int(r.header.point_count)
+        else:
+            total += int(os.path.getsize(p) * per_byte.get(kind, 1 / 12))
+    return total
+
+
+def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any, survey: SurveyOptions, *,
+               read_options: Mapping[str, Any] | None = None, extra: Mapping[str, Any] | None = None,
+               workdir: str | os.PathLike[str] | None = None, progress: Progress | None = None,
+               note: Callable[[str], None] | None = None, tile_function: Callable[..., Any] | None = None
+               ) -> SurveyRun:
+    """Run the ``"reefs"`` or ``"piles"`` pipeline over a survey of one or many files.
+
+    Parameters
+    ----------
+    kind : {"reefs", "piles"}
+    paths : sequence of path-like
+        The survey's files (:func:`~mbinspect.survey.inputs.expand_inputs`).
+    options : ReefOptions or PileOptions
+    survey : SurveyOptions
+    read_options : mapping, optional
+        For :func:`mbinspect.io.read`.
+    extra : mapping, optional
+        ``reference`` (reefs) or ``design`` (piles).
+    workdir : path-like, optional
+        Where tile parts go (a temporary folder, removed after, by default).
+    progress : callable, optional
+        ``(done, total, seconds_left)`` over files, then over tiles.
+    note : callable, optional
+        Told what the run does (a line of text).
+    tile_function : callable, optional
+        Runs one tile (default: the pipeline's own; tests use it to break a worker).
+
+    Returns
+    -------
+    SurveyRun
+    """
+    files = [Path(p) for p in paths]
+    ropts = dict(read_options or {})
+    extra = dict(extra or {})
+    say = note or (lambda s: None)
+    n_est = estimate_soundings(files, ropts.get("format"))
+    limit = (survey.memory_limit * 1e9) if survey.memory_limit else machine_memory() / 2
+    tiled = survey.tiled or n_est * BYTES_PER_SOUNDING > limit or survey.scheduler is not None
+    if not tiled:
+        cloud = read_survey(files, **ropts)
+        result = _whole(kind, cloud, options, extra)
+        return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
+    plan = TilePlan(survey.tile_size or _tile_size(files, n_est, ropts), _buffer(kind, options))
+    say(f"{len(files)} file(s), about {n_est:,} soundings: in tiles of {plan.size:g} m with a "
+        f"{plan.buffer:g} m buffer")
+    with tempfile.TemporaryDirectory(prefix="mbinspect-tiles-", dir=workdir) as tmp:
+        use_dask = survey.scheduler is not None or survey.workers != 1
+        with _maybe_client(use_dask, survey) as client:
+            bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
+                             progress=progress, plan=plan, workdir=tmp, read_options=ropts,
+                             chunk=survey.chunk)
+            tile_opts, notes = tile_options(kind, options)
+            tasks = _tile_tasks(bins, plan, kind, tile_opts, [str(f) for f in files])
+            say(f"{sum(b.n for b in bins):,} soundings in {len(tasks)} tiles")
+            fn = tile_function or run_tile
+            outcomes = map_tasks(fn, tasks, client=client, progress=progress)
+    result = _merge(kind, outcomes, options, extra, files, bins, notes)
+    pts = np.concatenate([o.sample for o in outcomes]) if outcomes else np.zeros((0, 3))
+    peaks: dict[int, int] = {}
+    for o in outcomes:
+        if "pid" in o.stats:
+            peaks[o.stats["pid"]] = max(peaks.get(o.stats["pid"], 0), o.stats["peak_rss"])
+    return SurveyRun(result, pts, True, len(tasks),
+                     {"soundings": sum(b.n for b in bins), "files": len(files), "tile_size": plan.size,
+                      "tile_buffer": plan.buffer, "worker_peak_rss": peaks,
+                      "tile_soundings": [o.n for o in outcomes],
+                      "tile_seconds": [o.stats.get("seconds") for o in outcomes]})
+
+
+def _bin_one(item: tuple[str, int], **kwargs: Any) -> FileBins:
+    path, k = item
+    return bin_file(path, k, **kwargs)
+
+
+class _NoClient:
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, *exc: Any) -> None:
+        return None
+
+
+def _maybe_client(use: bool, survey: SurveyOptions) -> Any:
+    if not use:
+        return _NoClient()
+    return dask_client(scheduler=survey.scheduler, workers=survey.workers)
+
+
+def _whole(kind: str, cloud: PointCloud, options: Any, extra: Mapping[str, Any]) -> Any:
+    if kind == "reefs":
+        from ..reefs import extract_reefs
+
+        return extract_reefs(cloud, options, reference=extra.get("reference"))
+    from ..piles import locate_piles
+
+    return locate_piles(cloud, options, design=extra.get("design"))
+
+
+def _buffer(kind: str, options: Any) -> float:
+    """Metres each tile reads beyond its square: the seabed window, the noise search and
+    the largest object, so that every stage sees near the edge what it sees inside."""
+    if kind == "reefs":
+        # a reef's single-reef area comes from the parts within AREA_RADIUS m, each part's
+        # footprint from the sounding spacing within SPACING_REACH blocks, each sounding's
+        # height from the seabed window: the chain a tile must hold, plus the reef itself
+        # (and the reef points there from the statistical filter's blocks)
+        reach = SPACING_BLOCK * (SPACING_REACH + 1) + STAT_BLOCK * (STAT_REACH + 1)
+        return float(math.ceil(AREA_RADIUS + reach + options.seabed_window + 2 * options.noise_radius + 5.0))
+    return float(math.ceil(options.opening_window + 10 * options.radius + 5.0))
+
+
+def _tile_size(files: Sequence[Path], n_est: int, ropts: Mapping[str, Any]) -> float:
+    """A side of about :data:`TILE_SOUNDINGS` soundings, from the first file's density."""
+    first = files[0]
+    if format_from_path(first, ropts.get("format")) == "las":
+        import laspy
+
+        with laspy.open(first) as r:
+            h = r.header
+            area = max(float((h.maxs[0] - h.mins[0]) * (h.maxs[1] - h.mins[1])), 1.0)
+            density = h.point_count / area
+    else:
+        from ..io import read
+
+        c = read(first, **ropts)
+        lo, hi = c.xyz[:, :2].min(axis=0), c.xyz[:, :2].max(axis=0)
+        density = len(c) / max(float(np.prod(hi - lo)), 1.0)
+    side = math.sqrt(TILE_SOUNDINGS / max(density, 1e-9))
+    return float(max(50.0, 10.0 * round(side / 10.0)))
+
+
+@dataclass(frozen=True)
+class TileTask:
+    """One tile's work: where its parts are and what to run on them."""
+
+    key: tuple[int, int]
+    parts: tuple[str, ...]
+    plan: TilePlan
+    kind: str
+    options: Any
+    stray: np.ndarray
+    line_offsets: Mapping[int, tuple[int, np.ndarray]]
+    files: tuple[str, ...]
+    crs: str | None
+
+
+@dataclass(frozen=True)
+class TileOutcome:
+    """What a tile reports: its own objects (centre in its square) and what it saw."""
+
+    key: tuple[int, int]
+    objects: tuple[Any, ...]
+    others: tuple[Any, ...]
+    covs: Mapping[int, np.ndarray]
+    warnings: tuple[str, ...]
+    n: int
+    sample: np.ndarray
+    stats: Mapping[str, Any]
+
+
+def tile_options(kind: str, options: Any) -> tuple[Any, list[str]]:
+    """The options each tile runs with, and why they differ from those given.
+
+    A tile cannot see the whole survey: the reef seabed ``auto`` (one plane where it fits
+    the whole cloud) becomes the local grid, and the pile ``count`` is applied after the
+    merge, not in each tile."""
+    notes = []
+    if kind == "reefs" and options.seabed == "auto":
+        options = options.replace(seabed="grid")
+        notes.append("tiled: the seabed is the local grid in every tile (`seabed` auto chooses one plane "
+                     "for a whole cloud, which a tile does not see)")
+    if kind == "piles" and options.count is not None:
+        options = options.replace(count=None)
+    return options, notes
+
+
+def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, kind: str, options: Any,
+                files: Sequence[str]) -> list[TileTask]:
+    cells = np.concatenate([b.cells for b in bins])
+    counts = np.concatenate([b.cell_counts for b in bins])
+    u, inv = np.unique(cells, axis=0, return_inverse=True)
+    total = np.bincount(inv.ravel(), weights=counts)
+    stray = u[stray_cells(u, total)]
+    offsets: dict[int, tuple[int, np.ndarray]] = {}
+    first = 1
+    for b in bins:
+        offsets[b.file] = (first, b.lines)
+        first += len(b.lines)
+    homes: dict[tuple[int, int], int] = {}
+    parts: dict[tuple[int, int], list[str]] = {}
+    for b in bins:
+        for k, n in b.home_counts.items():
+            homes[k] = homes.get(k, 0) + n
+        for k, p in b.parts.items():
+            parts.setdefault(k, []).extend(p)
+    crs = bins[0].crs
+    return [TileTask(k, tuple(parts[k]), plan, kind, options, stray, offsets, tuple(files), crs)
+            for k in sorted(homes)]
+
+
+def run_tile(task: TileTask) -> TileOutcome:
+    """Run the pipeline on one tile and keep what it owns; ``stats`` records the worker's
+    process, its peak resident memory so far (bytes) and the seconds the tile took."""
+    import resource
+
+    t0 = time.perf_counter()
+    out = _run_tile(task)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return replace(out, stats={**out.stats, "pid": os.getpid(), "peak_rss": peak,
+                               "seconds": time.perf_counter() - t0})
+
+
+def _run_tile(task: TileTask) -> TileOutcome:
+    cloud = load_tile(task.parts, line_offsets=task.line_offsets, stray=task.stray, files=task.files,
+                      crs=task.crs)
+    i, j = task.plan.home(cloud.xyz)
+    own = (i == task.key[0]) & (j == task.key[1])
+    sample = _thin(cloud.xyz[own])
+    x0, y0, x1, y1 = task.plan.core(*task.key)
+
+    def mine(x: float, y: float) -> bool:
+        return bool(x0 <= x < x1 and y0 <= y < y1)
+
+    stats: dict[str, Any] = {"n_own": int(own.sum())}
+    try:
+        if task.kind == "reefs":
+            from ..reefs import extract_reefs
+
+            r = extract_reefs(cloud, task.options)
+            objects = tuple(x for x in r.reefs if mine(x.x, x.y))
+            others = tuple(o for o in r.others if mine(o["x"], o["y"]))
+            stats.update(seabed=r.seabed, filters=r.filters, reef_area=r.footprint.get("reef_area_used"))
+            return TileOutcome(task.key, objects, others, {}, r.warnings, len(cloud), sample, stats)
+        from ..piles.run import measure_piles
+
+        m = measure_piles(cloud, task.options)
+        keep = [p for p in m.piles if mine(p.x, p.y)]
+        rejected = tuple(o for o in m.rejected if mine(o["x"], o["y"]))
+        return TileOutcome(task.key, tuple(keep), rejected, {p.id: m.covs[p.id] for p in keep},
+                           m.warnings, len(cloud), sample, stats)
+    except DataError as exc:
+        where = f"tile {task.key[0]},{task.key[1]} ({x0:.0f}–{x1:.0f} E, {y0:.0f}–{y1:.0f} N)"
+        return TileOutcome(task.key, (), (), {}, (f"{where}: {exc}",), len(cloud), sample, stats)
+
+
+def _thin(xyz: np.ndarray, cell: float = 0.5) -> np.ndarray:
+    """The median sounding (by z) of each ``cell`` m plan cell: a plan sample for the maps
+    of a tiled run, reefs kept and lone spikes left out."""
+    if len(xyz) == 0:
+        return np.zeros((0, 3))
+    ij = np.floor(xyz[:, :2] / cell).astype(np.int64)
+    ij -= ij.min(axis=0)
+    key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
+    order = np.lexsort((xyz[:, 2], key))
+    k = key[order]
+    starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+    ends = np.r_[starts[1:], len(k)]
+    return xyz[order[(starts + ends - 1) // 2]]
+
+
+def _merge(kind: str, outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
+           files: Sequence[Path], bins: Sequence[FileBins], notes: Sequence[str]) -> Any:
+    """The tiles' own objects as one result, numbered, grouped and scored once."""
+    warnings = list(notes) + [w for o in outcomes for w in o.warnings]
+    n = sum(b.n for b in bins)
+    parameters = {**options.to_dict(),
+                  "input": {"source": f"{len(files)} files", "n_points": n, "crs": bins[0].crs},
+                  "software": f"mbinspect {__version__}", "tiles": len(outcomes)}
+    if kind == "reefs":
+        return _merge_reefs(outcomes, options, extra, parameters, warnings)
+    from ..piles.run import relate_piles
+    from ..piles.separate import stable_order
+
+    piles = [(p, o.covs[p.id]) for o in outcomes for p in o.objects]
+    order = stable_order(np.array([[p.x, p.y] for p, _ in piles])) if piles else np.zeros(0, int)
+    covs: dict[int, np.ndarray] = {}
+    renamed: list[Any] = []
+    for k in order:  # numbered as one cloud numbers them: rows south to north, west to east
+        p, cov = piles[int(k)]
+        covs[len(renamed) + 1] = cov
+        renamed.append(replace(p, id=len(renamed) + 1))
+    if not piles:
+        raise DataError("no pile found in any tile: " + "; ".join(warnings[:3]))
+    if options.count is not None and len(piles) != options.count:
+        warnings.append(f"{len(piles)} piles found where `count` says {options.count}")
+    rejected = [r for o in outcomes for r in o.others]
+    return relate_piles(renamed, covs, options, design=extra.get("design"), parameters=parameters,
+                        warnings=warnings, rejected=rejected)
+
+
+def _merge_reefs(outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
+                 parameters: dict[str, Any], warnings: list[str]) -> Any:
+    from ..reefs.group import number_reefs
+    from ..reefs.results import ReefResult
+    from ..reefs.score import score_reefs
+
+    reefs, groups = number_reefs([r for o in outcomes for r in o.objects], options.group_link)
+    others = tuple(x for o in outcomes for x in o.others)
+    evaluation, ref_xy = None, None
+    reference = extra.get("reference")
+    if reference is not None:
+        evaluation, warn = score_reefs(reefs, reference, tolerance=options.tolerance)
+        warnings += warn
+        ref_xy = np.asarray(reference[0])
+    rms = [(o.stats["seabed"].get("residual_rms"), o.stats["n_own"]) for o in outcomes if "seabed" in o.stats]
+    rms = [(r, w) for r, w in rms if r is not None and np.isfinite(r)]
+    seabed = {"method": "local grid, per tile",
+              "residual_rms": float(np.sqrt(sum(r * r * w for r, w in rms) / max(sum(w for _, w in rms), 1)))
+              if rms else math.nan}
+    removed = sum(o.stats["filters"]["radius"]["n_removed"] for o in outcomes if "filters" in o.stats)
+    filters = {"radius": {"n_removed_in_buffered_tiles": removed}}
+    areas = [float(o.stats["reef_area"]) for o in outcomes if o.stats.get("reef_area") is not None]
+    return ReefResult(tuple(reefs), tuple(groups), others, seabed, filters, evaluation, parameters,
+                      tuple(warnings), None, None,
+                      {"reef_area_used": float(np.nanmedian(areas)) if areas else math.nan}, ref_xy)
+
+
+__all__ += ["TileTask", "TileOutcome", "run_tile", "STRAY_CELL"]
