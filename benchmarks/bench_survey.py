@@ -78,7 +78,9 @@ def _fresh(folder: Path, mode: str, workers: int, tile_size: float | None) -> di
 
 def _row(r: dict) -> str:
     w = max(r["worker_peaks"], default=0) / 2**30
-    total = (r["parent_peak"] + sum(r["worker_peaks"])) / 2**30
+    # with one worker the tiles run in this process: its peak is the run's
+    alone = r["mode"] == "memory" or r["workers"] == 1
+    total = (r["parent_peak"] + (0 if alone else sum(r["worker_peaks"]))) / 2**30
     s = r["score"]
     return (f"| {r['mode']} | {r['workers'] if r['mode'] == 'tiled' else '-'} | {r['soundings']:,} | "
             f"{r['tiles']} | {r['seconds']:.0f} | {r['per_s'] / 1e3:,.0f} k | "

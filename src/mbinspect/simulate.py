@@ -776,7 +776,7 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         orig = np.column_stack([pos[sl], -sonar.draft + heave[sl]])
         o = np.repeat(orig, len(beams), axis=0)
         d = dirs.reshape(-1, 3)
-        t, label, ident, normal, materials = _cast(scene, targets, o, d)
+        t, label, ident, normal, materials = _cast(scene, _within(targets, orig, scene.seabed, sonar), o, d)
         pi = np.repeat(np.arange(sl.start, sl.stop), len(beams))
         li = line_id[pi] - 1
         bi = np.tile(np.arange(len(beams)), m)
@@ -836,6 +836,22 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         },
     )
     return cloud, np.concatenate(out_lab), np.concatenate(out_id)
+
+
+def _within(targets: list[_Target], origins: np.ndarray, seabed: Seabed, sonar: Sonar) -> list[_Target]:
+    """The targets a batch of pings can reach: within the widest beam's reach (20 m below
+    the deepest seabed under the transducers, 10° past the swath) of their plan extent;
+    the others cannot be hit (the same hits, found without testing every object of a
+    large scene)."""
+    if len(targets) < 50:
+        return targets
+    depth = float(np.max(origins[:, 2] - seabed.elevation(origins[:, 0], origins[:, 1]))) + 20.0
+    angle = min(math.radians(sonar.swath_deg / 2 + 10.0), math.radians(85.0))
+    reach = depth * math.tan(angle) + 10.0
+    x0, y0 = origins[:, :2].min(axis=0) - reach
+    x1, y1 = origins[:, :2].max(axis=0) + reach
+    return [tg for tg in targets
+            if not (tg.bbox[1] < x0 or tg.bbox[0] > x1 or tg.bbox[3] < y0 or tg.bbox[2] > y1)]
 
 
 def _material_of(label: np.ndarray, ident: np.ndarray, scene: Scene,
@@ -1519,11 +1535,21 @@ def simulate_lines(preset: str, out: str | Path, *, seed: int = 0, suffix: str =
     return truth
 
 
+#: The scene a worker process of :func:`simulate_lines` last built, by its job's preset,
+#: seed and options.
+_SETUPS: dict[tuple[Any, ...], _Setup] = {}
+
+
 def _line_job(job: tuple[str, int, tuple[tuple[str, Any], ...], int, str, str], setup: _Setup | None = None
               ) -> tuple[str, dict[str, int]]:
     """Sail line ``k`` of a preset and write its file; its name and label counts."""
     preset, seed, overrides, k, folder, suffix = job
-    setup = setup or _setup(preset, seed, dict(overrides))
+    if setup is None:  # in a worker process: build the scene once for all its lines
+        key = (preset, seed, overrides)
+        if key not in _SETUPS:
+            _SETUPS.clear()
+            _SETUPS[key] = _setup(preset, seed, dict(overrides))
+        setup = _SETUPS[key]
     line = setup.plan.lines[k]
     sonar = setup.sonar
     line_seed = setup.noise_seed.spawn(len(setup.plan.lines))[k]

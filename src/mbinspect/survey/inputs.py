@@ -24,7 +24,9 @@ _SUFFIXES = tuple(s for suffixes in FORMATS.values() for s in suffixes)
 
 def expand_inputs(specs: Sequence[str | os.PathLike[str]]) -> list[Path]:
     """The files a list of inputs names: files as given, folders searched (recursively)
-    for every supported extension, glob patterns expanded; each file once, in order.
+    for every supported extension, glob patterns expanded; each file once, in order. A
+    folder's ASCII files (.xyz .txt .csv ...) are taken only when it holds no LAS, PLY, NPZ
+    or sonar file: beside line files they are tables such as designs and references.
 
     Parameters
     ----------
@@ -44,7 +46,7 @@ def expand_inputs(specs: Sequence[str | os.PathLike[str]]) -> list[Path]:
     --------
     >>> import tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> for name in ("b.laz", "a.laz", "notes.md"):
+    >>> for name in ("b.laz", "a.laz", "notes.md", "design.csv"):
     ...     _ = (d / name).write_text("")
     >>> [p.name for p in expand_inputs([d])]
     ['a.laz', 'b.laz']
@@ -55,6 +57,9 @@ def expand_inputs(specs: Sequence[str | os.PathLike[str]]) -> list[Path]:
         p = Path(text)
         if p.is_dir():
             found = sorted(f for f in p.rglob("*") if f.is_file() and f.suffix.lower() in _SUFFIXES)
+            binary = [f for f in found if f.suffix.lower() not in FORMATS["xyz"]]
+            if binary:  # beside line files, .csv and .txt files are tables (designs, references)
+                found = binary
             if not found:
                 raise FileAccessError(f"{p}: the folder holds no supported file; expected "
                                       f"{' '.join(_SUFFIXES)}")

@@ -128,7 +128,8 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
         cloud = read_survey(files, **ropts)
         result = _whole(kind, cloud, options, extra)
         return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
-    plan = TilePlan(survey.tile_size or _tile_size(files, n_est, ropts), _buffer(kind, options))
+    buffer = _buffer(kind, options)
+    plan = TilePlan(survey.tile_size or max(_tile_size(files, n_est, ropts), 2 * buffer + 10), buffer)
     say(f"{len(files)} file(s), about {n_est:,} soundings: in tiles of {plan.size:g} m with a "
         f"{plan.buffer:g} m buffer")
     with tempfile.TemporaryDirectory(prefix="mbinspect-tiles-", dir=workdir) as tmp:
@@ -198,19 +199,21 @@ def _buffer(kind: str, options: Any) -> float:
 
 
 def _tile_size(files: Sequence[Path], n_est: int, ropts: Mapping[str, Any]) -> float:
-    """A side of about :data:`TILE_SOUNDINGS` soundings, from the first file's density."""
-    first = files[0]
-    if format_from_path(first, ropts.get("format")) == "las":
-        import laspy
+    """A side of about :data:`TILE_SOUNDINGS` soundings: the density over the survey's
+    extent from the LAS/LAZ headers, or else from the first file alone."""
+    import laspy
 
-        with laspy.open(first) as r:
-            h = r.header
-            area = max(float((h.maxs[0] - h.mins[0]) * (h.maxs[1] - h.mins[1])), 1.0)
-            density = h.point_count / area
+    if all(format_from_path(f, ropts.get("format")) == "las" for f in files):
+        lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
+        for f in files:
+            with laspy.open(f) as r:
+                lo = np.minimum(lo, np.asarray(r.header.mins[:2], float))
+                hi = np.maximum(hi, np.asarray(r.header.maxs[:2], float))
+        density = n_est / max(float(np.prod(hi - lo)), 1.0)
     else:
         from ..io import read
 
-        c = read(first, **ropts)
+        c = read(files[0], **ropts)
         lo, hi = c.xyz[:, :2].min(axis=0), c.xyz[:, :2].max(axis=0)
         density = len(c) / max(float(np.prod(hi - lo)), 1.0)
     side = math.sqrt(TILE_SOUNDINGS / max(density, 1e-9))
