@@ -30,9 +30,10 @@ from ..reefs.footprint import SPACING_BLOCK, SPACING_REACH
 from ..reefs.split import AREA_RADIUS
 from .cluster import Progress, dask_client, machine_memory, map_tasks
 from .inputs import read_survey
-from .tiles import STRAY_CELL, FileBins, TilePlan, bin_file, load_tile
+from .tiles import FileBins, TilePlan, bin_file, load_tile
 
-__all__ = ["SurveyOptions", "SurveyRun", "run_survey", "estimate_soundings", "BYTES_PER_SOUNDING"]
+__all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "tile_options", "TileTask", "TileOutcome",
+           "estimate_soundings", "BYTES_PER_SOUNDING"]
 
 #: Peak memory of the in-memory pipelines per sounding (bytes): 1.69 GiB for 10 M soundings
 #: from NPZ, 4.02 GiB from ASCII (benchmarks/RESULTS.md), with a margin.
@@ -162,6 +163,8 @@ def _bin_one(item: tuple[str, int], **kwargs: Any) -> FileBins:
 
 
 class _NoClient:
+    """In place of a Dask client: the tasks run in this process."""
+
     def __enter__(self) -> None:
         return None
 
@@ -405,5 +408,3 @@ def _merge_reefs(outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[s
                       tuple(warnings), None, None,
                       {"reef_area_used": float(np.nanmedian(areas)) if areas else math.nan}, ref_xy)
 
-
-__all__ += ["TileTask", "TileOutcome", "run_tile", "STRAY_CELL"]
