@@ -12,7 +12,12 @@ from scipy.spatial import cKDTree
 
 from ..grid import cell_index, grow
 
-__all__ = ["Raster", "nearest_label_raster", "label_parts"]
+__all__ = ["Raster", "nearest_label_raster", "label_parts", "TIE"]
+
+#: Distances (m) this close to a threshold, or to each other, are equal: millimetre
+#: coordinates put soundings exactly on a threshold, where rounding in one frame or
+#: another (a tile's, the whole survey's) would decide otherwise.
+TIE = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,7 +116,7 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     # alone would spread the reef into its shadow: a reef cell must also lie within
     # ``own`` m of a reef sounding; enclosed gaps between pings are filled back
     close = np.zeros((ny, nx), dtype=bool)
-    close[cj[ok], ci[ok]] = d[ok] <= own_c[comp[cj[ok], ci[ok]]]
+    close[cj[ok], ci[ok]] = d[ok] <= own_c[comp[cj[ok], ci[ok]]] + TIE
     if height is not None and wall > 0:
         # a sounding on a reef's side wall marks the edge itself: of the cells nearest to
         # it, only those on the reef's side of it (up the height gradient) are reef
@@ -129,7 +134,7 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
         si, sj = np.clip(si, 0, nx - 1), np.clip(sj, 0, ny - 1)
         on_wall = is_reef[src] & (height[src] < wall * local[sj, si])
         g = np.column_stack([gx[sj, si], gy[sj, si]])
-        inward = ((centres[rows] - points[src, :2]) * g).sum(axis=1) >= 0
+        inward = ((centres[rows] - points[src, :2]) * g).sum(axis=1) >= -TIE * TIE
         close[cj[rows[on_wall]], ci[rows[on_wall]]] = inward[on_wall]
     core = reef & close
     # bridge the gaps between pings inside a reef; closing does not grow outer edges
@@ -148,18 +153,21 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
 
 
 def _nearest(tree: cKDTree, xy: np.ndarray, reach: float, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each cell centre's nearest sounding within ``reach``; between two soundings equally
-    near (to 1 nm: millimetre coordinates make such ties), the one first in the cloud, so
-    that the answer does not depend on the tree or the frame."""
-    if len(rows) < 2:
-        return tree.query(xy, k=1, distance_upper_bound=reach, workers=-1)
-    d2, k2 = tree.query(xy, k=2, distance_upper_bound=reach, workers=-1)
-    d, k = d2[:, 0], k2[:, 0]
-    far = ~np.isfinite(d2[:, 1])
-    tie = ~far & (np.where(far, 1.0, d2[:, 1]) - np.where(far, 0.0, d2[:, 0]) < 1e-9)
-    if tie.any():
-        swap = tie & (rows[np.minimum(k2[:, 1], len(rows) - 1)] < rows[np.minimum(k2[:, 0], len(rows) - 1)])
-        k = np.where(swap, k2[:, 1], k)
+    """Each cell centre's nearest sounding within ``reach``; among soundings equally near
+    (to :data:`TIE`: millimetre coordinates make such ties, and several soundings share a
+    plan position), the one first in the cloud, so that the answer does not depend on the
+    tree or the frame."""
+    kk = min(4, len(rows))
+    if kk < 2:
+        return tree.query(xy, k=1, distance_upper_bound=reach + TIE, workers=-1)
+    dk, ik = tree.query(xy, k=kk, distance_upper_bound=reach + TIE, workers=-1)
+    d, k = dk[:, 0], ik[:, 0]
+    found = np.isfinite(d)
+    tied = found[:, None] & np.isfinite(dk) & (np.where(np.isfinite(dk), dk, 0.0) - d[:, None] < TIE)
+    if tied[:, 1:].any():
+        order = np.where(tied, rows[np.minimum(ik, len(rows) - 1)], np.iinfo(np.int64).max)
+        pick = np.argmin(order, axis=1)
+        k = np.where(found, ik[np.arange(len(ik)), pick], k)
     return d, k
 
 

@@ -31,7 +31,8 @@ def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
 
     A field may hold several kinds of reef in separate groups; a pair of small reefs that
     touch must be judged against its own kind. Only the parts flagged in ``among`` (all by
-    default) count; fewer than ``min_parts`` of them around: ``overall``.
+    default) count; fewer than ``min_parts`` of them around: the ``min_parts`` nearest;
+    fewer than that in all: ``overall``.
 
     Parameters
     ----------
@@ -62,9 +63,17 @@ def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
     if not use.any():
         return np.full(len(parts), overall)
     sel = np.flatnonzero(use)
-    near = cKDTree(centres[sel]).query_ball_point(centres, radius)
-    return np.array([float(np.median(areas[sel[n]])) if len(n) >= min_parts else overall
-                     for n in near])
+    tree = cKDTree(centres[sel])
+    near = tree.query_ball_point(centres, radius)
+    out = np.full(len(parts), overall)
+    for k, n in enumerate(near):
+        if len(n) < min_parts and len(sel) >= min_parts:
+            # fewer around: the nearest ``min_parts`` (not the whole cloud, so that a tile of
+            # a survey learns what the whole survey learns)
+            n = np.atleast_1d(tree.query(centres[k], k=min_parts)[1])
+        if len(n) >= min_parts:
+            out[k] = float(np.median(areas[sel[np.asarray(n, int)]]))
+    return out
 
 
 def row_ends(xy: np.ndarray) -> np.ndarray:
@@ -125,9 +134,10 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
     reef shows as two, three or four separate walls. Fragments (parts under 0.6 of the
     single-reef area there, ``reef_area`` per part or one value) are joined while the
     union stays no larger than one reef: area within 1.3 reef areas and
-    diameter within 1.15 times the 90th-percentile diameter of the single reefs plus one
-    cell (a field may mix kinds of reef), the union whose diameter is nearest to that of
-    the whole reefs around it first. A union stays open to more fragments while it is
+    diameter within 1.15 times the 90th-percentile diameter of the single reefs around it
+    (within :data:`AREA_RADIUS` m, or its 3 nearest) plus one cell (a field may mix kinds
+    of reef), the union whose diameter is nearest to that of the whole reefs around it
+    first. A union stays open to more fragments while it is
     smaller than one reef area.
 
     Parameters
@@ -163,14 +173,24 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
         return np.column_stack([k, j]).astype(np.float64) * cell
 
     diam = np.array([diameter(cells_xy(parts[i])) for i in single])
-    limit = 1.15 * float(np.percentile(diam, 90)) + cell
-    # the diameter of a whole reef near each fragment (median of the single reefs within 25 m)
+    # the single reefs near a place: those within AREA_RADIUS m, or else its 3 nearest (so
+    # that nothing depends on reefs far away, nor on what else a tile of a survey holds)
     s_centres = np.array([cells_xy(parts[i]).mean(axis=0) for i in single])
     s_tree = cKDTree(s_centres)
 
-    def typical(c: np.ndarray) -> float:
-        near = s_tree.query_ball_point(c, 25.0)
-        return float(np.median(diam[near])) if len(near) >= 3 else float(np.median(diam))
+    def near_singles(c: np.ndarray) -> np.ndarray:
+        near = s_tree.query_ball_point(c, AREA_RADIUS)
+        if len(near) < 3:
+            near = np.atleast_1d(s_tree.query(c, k=min(3, len(single)))[1])
+        return diam[np.asarray(near, int)]
+
+    def typical(c: np.ndarray) -> float:  # the diameter of a whole reef there
+        return float(np.median(near_singles(c)))
+
+    def limit_at(c: np.ndarray) -> float:  # the largest union there
+        return 1.15 * float(np.percentile(near_singles(c), 90)) + cell
+
+    limit = 1.15 * float(diam.max()) + cell  # no union anywhere is wider
 
     # open unions: (cells, their plan positions, area, single-reef area there, centre)
     pool = {}
@@ -195,7 +215,7 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
             # (two walls of one hollow reef, not the facing walls of two neighbours)
             d_union = diameter(np.vstack([xa, xb]))
             score = abs(d_union - typical((ca + cb) / 2))
-            if d_union <= limit and (best is None or score < best[0]):
+            if d_union <= limit_at((ca + cb) / 2) and (best is None or score < best[0]):
                 best = (score, a, b)
         if best is None:
             break

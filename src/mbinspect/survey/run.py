@@ -39,6 +39,9 @@ __all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "tile_options
 #: from NPZ, 4.02 GiB from ASCII (benchmarks/RESULTS.md), with a margin.
 BYTES_PER_SOUNDING = 400
 
+#: The fields a pipeline reads besides x, y, z, file and line: all a tile part keeps.
+TILE_FIELDS = {"reefs": ("ping",), "piles": ("ping", "intensity")}
+
 #: Soundings a tile aims at when its size is left to the survey.
 TILE_SOUNDINGS = 4_000_000
 
@@ -138,7 +141,7 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
         with _maybe_client(use_dask, survey) as client:
             bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
                              progress=progress, plan=plan, workdir=tmp, read_options=ropts,
-                             chunk=survey.chunk)
+                             chunk=survey.chunk, fields=TILE_FIELDS[kind])
             tile_opts, notes = tile_options(kind, options)
             tasks = _tile_tasks(bins, plan, kind, tile_opts, [str(f) for f in files])
             say(f"{sum(b.n for b in bins):,} soundings in {len(tasks)} tiles")

@@ -114,7 +114,8 @@ def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any]) -> Iterator
 
 
 def bin_file(path: str | os.PathLike[str], file_index: int, plan: TilePlan, workdir: str | os.PathLike[str],
-             read_options: Mapping[str, Any] | None = None, chunk: int = 2_000_000) -> FileBins:
+             read_options: Mapping[str, Any] | None = None, chunk: int = 2_000_000,
+             fields: Sequence[str] | None = None) -> FileBins:
     """Stream one file into tile parts under ``workdir``.
 
     Parameters
@@ -129,6 +130,9 @@ def bin_file(path: str | os.PathLike[str], file_index: int, plan: TilePlan, work
         For :func:`mbinspect.io.read`.
     chunk : int
         Soundings per chunk of a LAS/LAZ file.
+    fields : sequence of str, optional
+        The fields kept beside x, y, z, file and line (default: every field): what the
+        pipeline uses, so that the parts hold no bytes it never reads.
 
     Returns
     -------
@@ -152,7 +156,7 @@ def bin_file(path: str | os.PathLike[str], file_index: int, plan: TilePlan, work
         n += len(cloud)
         lo = np.minimum(lo, cloud.xyz[:, :2].min(axis=0))
         hi = np.maximum(hi, cloud.xyz[:, :2].max(axis=0))
-        table = _table(cloud, file_index)
+        table = _table(cloud, file_index, fields)
         lines.append(np.unique(table["file_line"]))
         ij = np.floor(cloud.xyz[:, :2] / STRAY_CELL).astype(np.int64)
         u, k = np.unique(ij, axis=0, return_counts=True)
@@ -191,10 +195,12 @@ def _pack(i: np.ndarray, j: np.ndarray) -> np.ndarray:
     return (np.asarray(i, np.int64) + (1 << 30)) * (1 << 31) + (np.asarray(j, np.int64) + (1 << 30))
 
 
-def _table(cloud: PointCloud, file_index: int) -> np.ndarray:
-    """A chunk as one structured array: x, y, z, file, file_line and every other field."""
+def _table(cloud: PointCloud, file_index: int, keep: Sequence[str] | None = None) -> np.ndarray:
+    """A chunk as one structured array: x, y, z, file, file_line and the other fields
+    (those in ``keep`` when given)."""
     skip = {"line", "file"}
-    fields = {k: np.asarray(v) for k, v in sorted(cloud.fields.items()) if k not in skip}
+    fields = {k: np.asarray(v) for k, v in sorted(cloud.fields.items())
+              if k not in skip and (keep is None or k in keep)}
     dtype = [("x", "f8"), ("y", "f8"), ("z", "f8"), ("file", "i4"), ("file_line", "i8")]
     dtype += [(k, v.dtype.str) for k, v in fields.items()]
     t = np.empty(len(cloud), dtype=dtype)
