@@ -16,8 +16,6 @@ from typing import Any
 __all__ = ["add_inputs", "add_survey_flags", "input_files", "survey_options", "run_pipeline",
            "file_records", "task_progress", "cmd_soundings", "add_soundings_parser"]
 
-_READ_KEYS = ("format", "columns", "depth_positive", "delimiter", "crs", "keep_rejected", "decimal", "z_up")
-
 
 def add_inputs(p: argparse.ArgumentParser) -> None:
     """The input argument of a command that takes a whole survey."""
@@ -57,7 +55,9 @@ def survey_options(args: argparse.Namespace) -> Any:
 
 def read_options(args: argparse.Namespace) -> dict[str, Any]:
     """The reading flags as :func:`mbinspect.io.read` keywords."""
-    return {k: getattr(args, k) for k in _READ_KEYS}
+    from .survey.inputs import READ_OPTIONS
+
+    return {k: getattr(args, k) for k in READ_OPTIONS}
 
 
 def task_progress(label: str, verbosity: int, stream: Any = None
