@@ -63,7 +63,10 @@ def one_run(folder: Path, mode: str, workers: int, tile_size: float | None, out:
     peaks = run.info.get("worker_peak_rss", {})
     out.write_text(json.dumps({
         "mode": mode, "workers": workers, "soundings": n, "seconds": took, "per_s": n / took,
-        "tiles": run.tiles, "parent_peak": parent, "worker_peaks": list(peaks.values()),
+        "tiles": run.tiles, "tile_size": run.info.get("tile_size"),
+        "largest_tile": max(run.info.get("tile_soundings", [n])),
+        "read": sum(run.info.get("tile_soundings", [n])),
+        "parent_peak": parent, "worker_peaks": list(peaks.values()),
         "score": _score(run.result, truth),
         "reefs": [[r.id, r.x, r.y, r.height, r.area] for r in run.result.reefs],
     }))
@@ -83,12 +86,14 @@ def _row(r: dict) -> str:
     total = (r["parent_peak"] + (0 if alone else sum(r["worker_peaks"]))) / 2**30
     s = r["score"]
     return (f"| {r['mode']} | {r['workers'] if r['mode'] == 'tiled' else '-'} | {r['soundings']:,} | "
-            f"{r['tiles']} | {r['seconds']:.0f} | {r['per_s'] / 1e3:,.0f} k | "
+            f"{r['tiles']} | {r['tile_size'] or '-'} | {r['largest_tile'] / 1e6:.2f} M | "
+            f"{r['read'] / r['soundings']:.2f} | {r['seconds']:.0f} | {r['per_s'] / 1e3:,.0f} k | "
             f"{(w if w else r['parent_peak'] / 2**30):.2f} | {total:.2f} | {s['tp']}/{s['fp']}/{s['fn']} |")
 
 
-HEADER = ("| run | workers | soundings | tiles | s | soundings/s | peak GiB per worker | peak GiB in all "
-          "| TP/FP/FN |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+HEADER = ("| run | workers | soundings | tiles | tile m | largest tile reads | read / held | s | soundings/s "
+          "| peak GiB per worker | peak GiB in all | TP/FP/FN |\n"
+          "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 
 
 def compare(folder: Path, workers: int, tile_size: float | None) -> None:
@@ -114,8 +119,9 @@ def tiled(folder: Path, workers: list[int], tile_size: float | None) -> None:
     for r in rows:
         print(_row(r))
     if len(rows) == 2:
-        print(f"\n{rows[1]['workers']} workers against {rows[0]['workers']}: "
-              f"{rows[0]['seconds'] / rows[1]['seconds']:.2f}x faster")
+        few, many = sorted(rows, key=lambda r: r["workers"])
+        print(f"\n{many['workers']} workers against {few['workers']}: "
+              f"{few['seconds'] / many['seconds']:.2f}x faster")
 
 
 def main() -> None:

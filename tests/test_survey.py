@@ -22,7 +22,7 @@ from mbinspect.reefs import ReefOptions
 from mbinspect.simulate import simulate_lines
 from mbinspect.survey import expand_inputs, read_survey
 from mbinspect.survey.run import SurveyOptions, run_survey, run_tile
-from mbinspect.survey.tiles import TilePlan, bin_file, load_tile
+from mbinspect.survey.tiles import TilePlan, bin_file, block_counts, choose_plan, load_tile, tile_slices
 
 # four groups of nine reefs; tiles of 126 m or more (over twice the 62 m buffer): four
 # tiles, reefs on their borders
@@ -83,24 +83,40 @@ def test_read_survey_keeps_file_line_and_ping(tmp_path: Path) -> None:
 def test_binning_puts_every_sounding_home_once_and_buffers_the_edges(tmp_path: Path) -> None:
     rng = np.random.default_rng(1)
     xyz = np.column_stack([rng.uniform(0, 300, 5000), rng.uniform(0, 300, 5000), np.full(5000, -10.0)])
-    write(PointCloud(xyz, {"ping": np.arange(5000)}), tmp_path / "a.laz")
-    plan = TilePlan(100.0, 20.0)
-    bins = bin_file(tmp_path / "a.laz", 0, plan, tmp_path / "tiles", chunk=1200)
-    assert sum(bins.home_counts.values()) == 5000 and bins.n == 5000
+    write(PointCloud(xyz[:4000], {"ping": np.arange(4000)}), tmp_path / "a.laz")
+    xyz[4000:, 0] = rng.uniform(1, 2, 1000)  # a line along one column of blocks: one range of rows
+    write(PointCloud(xyz[4000:], {"ping": np.arange(4000, 5000)}), tmp_path / "b.laz")
+    plan = TilePlan(100.0, 20.0, TilePlan.block_for(20.0, 100.0))
+    (tmp_path / "tiles").mkdir()
+    bins = [bin_file(tmp_path / f"{name}.laz", k, plan.block, tmp_path / "tiles", chunk=1200)
+            for k, name in enumerate("ab")]
+    reads, owns = tile_slices(plan, bins)
+    assert sum(owns.values()) == 5000 and [b.n for b in bins] == [4000, 1000]
+    assert [len(b.chunks) for b in bins] == [4, 1]
+    reach = plan.reach * plan.block
+    assert 20.0 <= reach < 20.0 + plan.block
     got = 0
-    for key, parts in bins.parts.items():
-        tile = load_tile(parts, line_offsets={0: (1, bins.lines)})
+    for key, slices in reads.items():
+        tile = load_tile(slices, line_offsets={0: (1, bins[0].lines), 1: (2, bins[1].lines)})
         i, j = plan.home(tile.xyz)
         home = (i == key[0]) & (j == key[1])
         got += int(home.sum())
         x0, y0, x1, y1 = plan.core(*key)
-        # every sounding within the buffer of the tile's square is in the tile
-        want = ((xyz[:, 0] >= x0 - 20) & (xyz[:, 0] < x1 + 20)
-                & (xyz[:, 1] >= y0 - 20) & (xyz[:, 1] < y1 + 20))
-        assert len(tile) == int(want.sum())
+        # every sounding within the buffer of the tile's square is in the tile, in the files' order
+        want = ((xyz[:, 0] >= x0 - reach) & (xyz[:, 0] < x1 + reach)
+                & (xyz[:, 1] >= y0 - reach) & (xyz[:, 1] < y1 + reach))
+        assert tile.fields["ping"].tolist() == np.flatnonzero(want).tolist()
+        assert tile.fields["line"].tolist() == [1 + int(p >= 4000) for p in np.flatnonzero(want)]
     assert got == 5000
+    # the tiles chosen from the block counts: none over the budget, the fastest on 2 workers
+    blocks, counts = block_counts(bins)
+    assert counts.sum() == 5000
+    chosen, info = choose_plan(blocks, counts, 20.0, plan.block, budget=3000, workers=2)
+    assert info["within_budget"] and info["largest"] <= 3000 and info["tiles"] >= 2
+    one, info1 = choose_plan(blocks, counts, 20.0, plan.block, budget=1e9, workers=1)
+    assert info1["tiles"] == 1 and info1["read"] == 5000  # one worker, no memory limit: one tile
     with pytest.raises(ParameterError, match="tile_buffer"):
-        TilePlan(30.0, 20.0)
+        TilePlan(30.0, 20.0, 10.0)
 
 
 def test_line_files_carry_the_truth(reef_lines: tuple[Path, dict]) -> None:

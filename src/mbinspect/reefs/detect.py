@@ -6,10 +6,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ..checks import fail, positive
 from ..filters import FilterReport, radius_outlier
+from ..grid import cell_index
 from .ground import Seabed
 
 __all__ = ["radius_keeping", "denoise", "reef_points", "clean_reef_points"]
@@ -68,23 +70,63 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3, 
 def _spacing_rescue(pts: np.ndarray, candidates: np.ndarray, radius: float, min_neighbors: int,
                     factor: float, chunk: int = 200_000) -> np.ndarray:
     """Which ``candidates`` have their ``min_neighbors + 1``-th neighbour within ``factor``
-    local plan spacings (see :func:`denoise`), in chunks so memory follows the chunk."""
+    local plan spacings (see :func:`denoise`), in chunks so memory follows the chunk.
+
+    The neighbours are sought among the soundings in the 3 x 3 plan cells of side ``radius``
+    around each candidate, which hold every sounding that near: a distance found within the
+    side is exact (and one beyond it is beyond any limit within it). The few candidates left
+    undecided ask again with cells 8 and 64 times larger, then among all the soundings: the
+    answer of trees over the whole cloud, from trees over a fraction of it."""
     local = pts - pts.mean(axis=0)
     rows = np.flatnonzero(candidates)
     out = np.zeros(len(pts), dtype=bool)
     k = min_neighbors + 1
-    if len(pts) < k + 1:
+    if len(pts) < k + 1 or len(rows) == 0:
         return out
-    tree3 = cKDTree(local)
-    tree2 = cKDTree(local[:, :2])
     kp = min(16, len(pts) - 1)
-    for start in range(0, len(rows), chunk):
-        r = rows[start:start + chunk]
-        dk = tree3.query(local[r], k=k + 1)[0][:, k]
-        d16 = tree2.query(local[r, :2], k=kp + 1)[0][:, kp]
-        spacing = d16 * math.sqrt(math.pi / kp)
-        out[r] = dk <= np.maximum(radius, factor * spacing)
+    dk = np.full(len(rows), np.inf)
+    limit = np.full(len(rows), np.inf)
+    todo = np.arange(len(rows))
+    lo = (float(local[:, 0].min()), float(local[:, 1].min()))
+    for side in (radius, 8 * radius, 64 * radius, math.inf):
+        at = rows[todo]
+        if math.isfinite(side):
+            ci, cj = cell_index(local, lo[0], lo[1], side)
+            need = np.zeros((int(ci.max()) + 1, int(cj.max()) + 1), dtype=np.uint8)
+            need[ci[at], cj[at]] = 1
+            near = np.flatnonzero(ndimage.maximum_filter(need, size=3, mode="constant")[ci, cj])
+            d3, d2 = _rescue_distances(local[near], local[at], k, kp, chunk)
+        else:
+            d3, d2 = _rescue_distances(local, local[at], k, kp, chunk)
+        lim = np.maximum(radius, factor * d2 * math.sqrt(math.pi / kp))
+        # a plan spacing found within the side is exact; so is a 3-D distance, and one
+        # beyond the side is beyond any limit within it
+        done = (d2 <= side) & ((d3 <= side) | (lim <= side))
+        dk[todo[done]], limit[todo[done]] = d3[done], lim[done]
+        todo = todo[~done]
+        if len(todo) == 0:
+            break
+    out[rows] = dk <= limit
     return out
+
+
+def _rescue_distances(among: np.ndarray, at: np.ndarray, k: int, kp: int, chunk: int
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k``-th 3-D and ``kp``-th plan neighbour distance of each of ``at`` among
+    ``among`` (each of ``at`` is one of ``among``; inf where too few)."""
+    dk = np.full(len(at), np.inf)
+    d16 = np.full(len(at), np.inf)
+    if len(among) < 2:
+        return dk, d16
+    tree3 = cKDTree(among)
+    tree2 = cKDTree(among[:, :2])
+    for start in range(0, len(at), chunk):
+        q = at[start:start + chunk]
+        d3 = tree3.query(q, k=k + 1)[0]
+        d2 = tree2.query(q[:, :2], k=kp + 1)[0]
+        dk[start:start + len(q)] = d3[:, k] if d3.ndim == 2 else d3
+        d16[start:start + len(q)] = d2[:, kp] if d2.ndim == 2 else d2
+    return dk, d16
 
 
 def radius_keeping(points: np.ndarray, min_neighbors: int, share: float = 0.99, *, sample: int = 50_000,

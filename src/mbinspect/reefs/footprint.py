@@ -118,24 +118,7 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     close = np.zeros((ny, nx), dtype=bool)
     close[cj[ok], ci[ok]] = d[ok] <= own_c[comp[cj[ok], ci[ok]]] + TIE
     if height is not None and wall > 0:
-        # a sounding on a reef's side wall marks the edge itself: of the cells nearest to
-        # it, only those on the reef's side of it (up the height gradient) are reef
-        hmax = np.zeros((ny, nx))
-        ri = np.flatnonzero(is_reef)
-        ri_i, ri_j = cell_index(points[ri], lo[0], lo[1], cell)
-        np.maximum.at(hmax, (np.clip(ri_j, 0, ny - 1), np.clip(ri_i, 0, nx - 1)), height[ri])
-        w = max(1, int(round(0.4 / cell)))
-        local = ndimage.maximum_filter(hmax, size=2 * w + 1)
-        smooth = ndimage.gaussian_filter(hmax, 2.0)
-        gy, gx = np.gradient(smooth)
-        rows = np.flatnonzero(ok)
-        src = idx[k[rows]]
-        si, sj = cell_index(points[src], lo[0], lo[1], cell)
-        si, sj = np.clip(si, 0, nx - 1), np.clip(sj, 0, ny - 1)
-        on_wall = is_reef[src] & (height[src] < wall * local[sj, si])
-        g = np.column_stack([gx[sj, si], gy[sj, si]])
-        inward = ((centres[rows] - points[src, :2]) * g).sum(axis=1) >= -TIE * TIE
-        close[cj[rows[on_wall]], ci[rows[on_wall]]] = inward[on_wall]
+        _wall_rule(points, is_reef, height, wall, idx, k, ok, cj, ci, centres, comp, close, lo, cell, r)
     core = reef & close
     # bridge the gaps between pings inside a reef; closing does not grow outer edges
     closed = np.zeros_like(core)
@@ -150,6 +133,54 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
         closed[box] |= done & (comp[box] == c)
     filled = ndimage.binary_fill_holes(closed & reef) & reef
     return filled, nearest, float(lo[0]), float(lo[1])
+
+
+def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall: float, idx: np.ndarray,
+               k: np.ndarray, ok: np.ndarray, cj: np.ndarray, ci: np.ndarray, centres: np.ndarray,
+               comp: np.ndarray, close: np.ndarray, lo: np.ndarray, cell: float, r: int) -> None:
+    """A sounding on a reef's side wall marks the edge itself: of the cells nearest to it,
+    only those on the reef's side of it (up the height gradient) are reef (``close`` is
+    set in place).
+
+    The highest reef sounding per cell, its local maximum and its smoothed gradient are
+    computed in a window around each candidate region, padded beyond what the filters
+    reach and cut at the raster's edge as the raster itself is: the same values as over
+    the whole raster, in memory that follows the reefs, not the tile."""
+    ny, nx = comp.shape
+    ri = np.flatnonzero(is_reef)
+    ri_i, ri_j = cell_index(points[ri], lo[0], lo[1], cell)
+    ri_i, ri_j = np.clip(ri_i, 0, nx - 1), np.clip(ri_j, 0, ny - 1)
+    w = max(1, int(round(0.4 / cell)))
+    rows = np.flatnonzero(ok)
+    src = idx[k[rows]]
+    si, sj = cell_index(points[src], lo[0], lo[1], cell)
+    si, sj = np.clip(si, 0, nx - 1), np.clip(sj, 0, ny - 1)
+    label = comp[cj[rows], ci[rows]]
+    order = np.argsort(label, kind="stable")
+    bounds = np.searchsorted(label[order], np.arange(comp.max() + 2))
+    # the Gaussian's truncation (4 sigma = 8 cells), one cell of gradient, the maximum's
+    # half-width, and the reach from a candidate cell to its nearest sounding
+    pad = r + 2 + 8 + 1 + w
+    for c, box in enumerate(ndimage.find_objects(comp), start=1):
+        if box is None:
+            continue
+        mine = order[bounds[c]:bounds[c + 1]]
+        if len(mine) == 0:
+            continue
+        y0, y1 = max(0, box[0].start - pad), min(ny, box[0].stop + pad)
+        x0, x1 = max(0, box[1].start - pad), min(nx, box[1].stop + pad)
+        inside = (ri_j >= y0) & (ri_j < y1) & (ri_i >= x0) & (ri_i < x1)
+        hmax = np.zeros((y1 - y0, x1 - x0))
+        np.maximum.at(hmax, (ri_j[inside] - y0, ri_i[inside] - x0), height[ri[inside]])
+        local = ndimage.maximum_filter(hmax, size=2 * w + 1)
+        smooth = ndimage.gaussian_filter(hmax, 2.0)
+        gy, gx = np.gradient(smooth)
+        s_src, a, b = src[mine], sj[mine] - y0, si[mine] - x0
+        on_wall = is_reef[s_src] & (height[s_src] < wall * local[a, b])
+        g = np.column_stack([gx[a, b], gy[a, b]])
+        inward = ((centres[rows[mine]] - points[s_src, :2]) * g).sum(axis=1) >= -TIE * TIE
+        hit = rows[mine][on_wall]
+        close[cj[hit], ci[hit]] = inward[on_wall]
 
 
 def _nearest(tree: cKDTree, xy: np.ndarray, reach: float, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -4,8 +4,9 @@ saw it.
 
 1. ``inputs`` - :func:`expand_inputs` (files, folders, globs) and :func:`read_survey`
    (several files as one cloud, each sounding keeping its ``file``, ``line`` and ``ping``).
-2. ``tiles`` - :class:`TilePlan` (square tiles with a buffer) and :func:`bin_file` (one
-   file streamed in chunks into tile parts on disk).
+2. ``tiles`` - :func:`bin_file` (one file streamed in chunks into block-sorted parts on
+   disk), :func:`choose_plan` (the tiles, whole blocks with a buffer, from the block
+   counts) and :func:`load_tile` (a tile's blocks read back as one cloud).
 3. ``run`` - :func:`~mbinspect.survey.run.run_survey`: in memory for a small survey,
    else binned, every tile processed on its own, objects kept by the tile holding their
    centre and merged once (reef numbers, pile groups and spacings formed after the merge).

@@ -1,10 +1,12 @@
 """A whole survey through a pipeline: :func:`run_survey`.
 
 Small surveys are read whole and run in memory. A survey larger than ``memory_limit`` (or
-with ``tiled``) is streamed file by file into tiles (:func:`~mbinspect.survey.tiles.bin_file`),
-each tile with its buffer is run through the pipeline on its own (in this process or on
-Dask), each object is kept by the tile holding its centre, and the kept objects are merged
-once: reefs numbered and grouped, piles renumbered, grouped into jackets and spaced.
+with ``tiled``) is streamed file by file into blocks on disk
+(:func:`~mbinspect.survey.tiles.bin_file`), cut into the tiles that finish soonest within a
+tile's memory (:func:`~mbinspect.survey.tiles.choose_plan`), each tile with its buffer is
+run through the pipeline on its own (in this process or on Dask), each object is kept by
+the tile holding its centre, and the kept objects are merged once: reefs numbered and
+grouped, piles renumbered, grouped into jackets and spaced.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from ..reefs.footprint import SPACING_BLOCK, SPACING_REACH
 from ..reefs.split import AREA_RADIUS
 from .cluster import Progress, dask_client, machine_memory, map_tasks
 from .inputs import read_survey
-from .tiles import FileBins, TilePlan, bin_file, load_tile
+from .tiles import FileBins, TilePlan, bin_file, block_counts, choose_plan, load_tile, tile_slices
 
 __all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "tile_options", "TileTask", "TileOutcome",
            "estimate_soundings", "BYTES_PER_SOUNDING"]
@@ -42,8 +44,11 @@ BYTES_PER_SOUNDING = 400
 #: The fields a pipeline reads besides x, y, z, file and line: all a tile part keeps.
 TILE_FIELDS = {"reefs": ("ping",), "piles": ("ping", "intensity")}
 
-#: Soundings a tile aims at when its size is left to the survey.
-TILE_SOUNDINGS = 4_000_000
+#: A tile's peak memory on a worker: a fixed part (the interpreter, NumPy, SciPy, the
+#: Dask worker) and bytes per sounding it reads; measured 0.09 GB and 150 B in one
+#: process on a reef tile of 7.8 M soundings (benchmarks/RESULTS.md), with a margin.
+TILE_BASE_BYTES = 250e6
+TILE_BYTES_PER_SOUNDING = 160
 
 
 @dataclass(frozen=True)
@@ -52,7 +57,11 @@ class SurveyOptions(Options):
 
     tiled: bool = option(False, help="process in tiles even when the survey fits in memory")
     tile_size: float | None = option(None, unit="m", check="positive",
-                                     help="tile side (none: about 4 M soundings per tile)")
+                                     help="tile side (none: the side that finishes soonest with every tile "
+                                          "within `tile_memory`)")
+    tile_memory: float | None = option(None, unit="GB", check="positive",
+                                       help="peak memory a tile may take on a worker (none: 1.8, or the "
+                                            "machine's memory shared by the workers if less)")
     memory_limit: float | None = option(None, unit="GB", check="positive",
                                         help="tile the survey when reading it whole would need more "
                                              "(none: half the machine's memory)")
@@ -133,18 +142,22 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
         result = _whole(kind, cloud, options, extra)
         return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
     buffer = _buffer(kind, options)
-    plan = TilePlan(survey.tile_size or max(_tile_size(files, n_est, ropts), 2 * buffer + 10), buffer)
-    say(f"{len(files)} file(s), about {n_est:,} soundings: in tiles of {plan.size:g} m with a "
-        f"{plan.buffer:g} m buffer")
+    block = TilePlan.block_for(buffer, survey.tile_size)
+    say(f"{len(files)} file(s), about {n_est:,} soundings: binned in blocks of {block:g} m")
     with tempfile.TemporaryDirectory(prefix="mbinspect-tiles-", dir=workdir) as tmp:
         use_dask = survey.scheduler is not None or survey.workers != 1
         with _maybe_client(use_dask, survey) as client:
             bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
-                             progress=progress, plan=plan, workdir=tmp, read_options=ropts,
+                             progress=progress, block=block, workdir=tmp, read_options=ropts,
                              chunk=survey.chunk, fields=TILE_FIELDS[kind])
+            plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey))
             tile_opts, notes = tile_options(kind, options)
+            if not sizing.get("within_budget", True):
+                notes.append(f"tiled: the smallest tiles the buffer allows read {sizing['largest']:,} "
+                             f"soundings, more than `tile_memory` holds")
             tasks = _tile_tasks(bins, plan, kind, tile_opts, [str(f) for f in files])
-            say(f"{sum(b.n for b in bins):,} soundings in {len(tasks)} tiles")
+            say(f"{sum(b.n for b in bins):,} soundings in {len(tasks)} tiles of {plan.size:g} m with a "
+                f"{plan.reach * plan.block:g} m buffer")
             fn = tile_function or run_tile
             outcomes = map_tasks(fn, tasks, client=client, progress=progress)
     result = _merge(kind, outcomes, options, extra, files, bins, notes)
@@ -155,7 +168,7 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
             peaks[o.stats["pid"]] = max(peaks.get(o.stats["pid"], 0), o.stats["peak_rss"])
     return SurveyRun(result, pts, True, len(tasks),
                      {"soundings": sum(b.n for b in bins), "files": len(files), "tile_size": plan.size,
-                      "tile_buffer": plan.buffer, "worker_peak_rss": peaks,
+                      "tile_buffer": plan.reach * plan.block, "worker_peak_rss": peaks,
                       "tile_soundings": [o.n for o in outcomes],
                       "tile_seconds": [o.stats.get("seconds") for o in outcomes]})
 
@@ -204,26 +217,24 @@ def _buffer(kind: str, options: Any) -> float:
     return float(math.ceil(options.opening_window + 10 * options.radius + 5.0))
 
 
-def _tile_size(files: Sequence[Path], n_est: int, ropts: Mapping[str, Any]) -> float:
-    """A side of about :data:`TILE_SOUNDINGS` soundings: the density over the survey's
-    extent from the LAS/LAZ headers, or else from the first file alone."""
-    import laspy
+def _worker_count(client: Any, survey: SurveyOptions) -> int:
+    if client is None:
+        return 1
+    if survey.scheduler is not None:
+        return max(1, len(client.scheduler_info().get("workers", {})))
+    return survey.workers or os.cpu_count() or 1
 
-    if all(format_from_path(f, ropts.get("format")) == "las" for f in files):
-        lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
-        for f in files:
-            with laspy.open(f) as r:
-                lo = np.minimum(lo, np.asarray(r.header.mins[:2], float))
-                hi = np.maximum(hi, np.asarray(r.header.maxs[:2], float))
-        density = n_est / max(float(np.prod(hi - lo)), 1.0)
-    else:
-        from ..io import read
 
-        c = read(files[0], **ropts)
-        lo, hi = c.xyz[:, :2].min(axis=0), c.xyz[:, :2].max(axis=0)
-        density = len(c) / max(float(np.prod(hi - lo)), 1.0)
-    side = math.sqrt(TILE_SOUNDINGS / max(density, 1e-9))
-    return float(max(50.0, 10.0 * round(side / 10.0)))
+def _plan(bins: Sequence[FileBins], buffer: float, block: float, survey: SurveyOptions,
+          workers: int) -> tuple[TilePlan, dict[str, Any]]:
+    """The given tile size, or the one :func:`~mbinspect.survey.tiles.choose_plan` finds
+    fastest within the memory of a tile."""
+    if survey.tile_size is not None:
+        return TilePlan(survey.tile_size, buffer, block), {}
+    memory = survey.tile_memory * 1e9 if survey.tile_memory else min(1.8e9, machine_memory() * 0.8 / workers)
+    budget = max(memory - TILE_BASE_BYTES, 0.0) / TILE_BYTES_PER_SOUNDING
+    blocks, counts = block_counts(bins)
+    return choose_plan(blocks, counts, buffer, block, budget=budget, workers=workers)
 
 
 @dataclass(frozen=True)
@@ -231,7 +242,7 @@ class TileTask:
     """One tile's work: where its parts are and what to run on them."""
 
     key: tuple[int, int]
-    parts: tuple[str, ...]
+    slices: tuple[tuple[str, tuple[tuple[int, int], ...]], ...]
     plan: TilePlan
     kind: str
     options: Any
@@ -283,16 +294,10 @@ def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, kind: str, options: An
     for b in bins:
         offsets[b.file] = (first, b.lines)
         first += len(b.lines)
-    homes: dict[tuple[int, int], int] = {}
-    parts: dict[tuple[int, int], list[str]] = {}
-    for b in bins:
-        for k, n in b.home_counts.items():
-            homes[k] = homes.get(k, 0) + n
-        for k, p in b.parts.items():
-            parts.setdefault(k, []).extend(p)
+    reads, _ = tile_slices(plan, bins)
     crs = bins[0].crs
-    return [TileTask(k, tuple(parts[k]), plan, kind, options, stray, offsets, tuple(files), crs)
-            for k in sorted(homes)]
+    return [TileTask(k, tuple(reads[k]), plan, kind, options, stray, offsets, tuple(files), crs)
+            for k in sorted(reads)]
 
 
 def run_tile(task: TileTask) -> TileOutcome:
@@ -308,7 +313,7 @@ def run_tile(task: TileTask) -> TileOutcome:
 
 
 def _run_tile(task: TileTask) -> TileOutcome:
-    cloud = load_tile(task.parts, line_offsets=task.line_offsets, stray=task.stray, files=task.files,
+    cloud = load_tile(task.slices, line_offsets=task.line_offsets, stray=task.stray, files=task.files,
                       crs=task.crs)
     i, j = task.plan.home(cloud.xyz)
     own = (i == task.key[0]) & (j == task.key[1])
@@ -316,7 +321,8 @@ def _run_tile(task: TileTask) -> TileOutcome:
     x0, y0, x1, y1 = task.plan.core(*task.key)
 
     def mine(x: float, y: float) -> bool:
-        return bool(x0 <= x < x1 and y0 <= y < y1)
+        hi, hj = task.plan.home(np.array([[x, y]]))
+        return bool(hi[0] == task.key[0] and hj[0] == task.key[1])
 
     stats: dict[str, Any] = {"n_own": int(own.sum())}
     try:

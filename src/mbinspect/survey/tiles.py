@@ -1,13 +1,18 @@
-"""A survey cut into square tiles with a buffer, streamed from its files into tile parts on
-disk, and a tile read back as one cloud.
+"""A survey binned once into square blocks on disk, cut into square tiles of whole blocks
+with a buffer, and a tile read back as one cloud.
 
-Tile parts are NumPy ``.npy`` files of one structured array (x, y, z as float64 and every
-field of the chunk at its own type), one part per (tile, file, chunk): written once, read
-once by the worker of that tile, exact to the bit, with no dependency beyond NumPy.
+Each file is streamed in chunks; each chunk is sorted by block and written once as a NumPy
+``.npy`` file of one structured array (x, y, z as float64 and every field of the chunk at
+its own type), with the offsets of its blocks. A tile reads the slices of its blocks and
+of those within its buffer through a memory map: a sounding is written once, whatever the
+tiles, and the tiles are chosen after binning from the exact count in every block
+(:func:`choose_plan`), so that no tile outgrows a worker's memory. Exact to the bit, with no
+dependency beyond NumPy.
 """
 
 from __future__ import annotations
 
+import heapq
 import math
 import os
 from collections.abc import Iterator, Mapping, Sequence
@@ -20,30 +25,41 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..io import PointCloud, format_from_path, iter_las, read
 
-__all__ = ["TilePlan", "FileBins", "bin_file", "load_tile", "STRAY_CELL"]
+__all__ = ["TilePlan", "FileBins", "BinnedChunk", "bin_file", "block_counts", "choose_plan", "tile_slices",
+           "load_tile", "STRAY_CELL", "BLOCKS_PER_BUFFER"]
 
 #: Plan cell (m) of the survey-wide search for stray soundings (:func:`mbinspect.grid.stray_cells`).
 STRAY_CELL = 25.0
 
+#: Blocks across a tile's buffer: finer blocks fit the buffer closer and cost more slices.
+BLOCKS_PER_BUFFER = 4
+
+#: A sounding's place in its chunk, kept in the parts to restore the file's order in a tile.
+ROW = "chunk_row"
+
 
 @dataclass(frozen=True)
 class TilePlan:
-    """Square tiles of ``size`` m counted from (0, 0), each read with ``buffer`` m around it.
+    """Square tiles of ``size`` m, each a whole number of ``block`` m blocks (blocks from
+    (0, 0), tiles from the block ``origin``), read with the whole blocks within ``buffer`` m
+    around it.
 
     A sounding belongs to the tile whose square holds it (its home) and is also read by
-    every tile whose buffered square holds it, so that each stage of a tile sees what it
-    needs near the tile's edge; an object is reported by its centre's home tile only.
+    every tile whose buffer holds its block, so that each stage of a tile sees what it needs
+    near the tile's edge; an object is reported by its centre's home tile only.
 
     Examples
     --------
-    >>> plan = TilePlan(100.0, 10.0)
-    >>> ti, tj, rows = plan.assign(np.array([[50.0, 50.0], [95.0, 50.0]]))
+    >>> plan = TilePlan(100.0, 10.0, 10.0)
+    >>> ti, tj, rows = plan.tiles_of_blocks(np.array([5, 9]), np.array([5, 5]))
     >>> sorted(zip(ti.tolist(), tj.tolist(), rows.tolist()))
     [(0, 0, 0), (0, 0, 1), (1, 0, 1)]
     """
 
     size: float
     buffer: float
+    block: float
+    origin: tuple[int, int] = (0, 0)
 
     def __post_init__(self) -> None:
         if not (self.size > 0 and math.isfinite(self.size)):
@@ -53,48 +69,82 @@ class TilePlan:
             raise ParameterError(f"tile_buffer: {self.buffer:g} m; expected at least 0 and under half the "
                                  f"tile size ({self.size / 2:g} m): give a larger tile_size",
                                  option="tile_size")
+        if not (self.block > 0 and abs(self.size / self.block - round(self.size / self.block)) < 1e-9):
+            raise ParameterError(f"tile block: {self.block:g} m; expected a whole fraction of the tile size "
+                                 f"{self.size:g} m", option="tile_size")
+
+    @staticmethod
+    def block_for(buffer: float, size: float | None = None) -> float:
+        """The binning block for a buffer: :data:`BLOCKS_PER_BUFFER` across it, made a whole
+        fraction of ``size`` when the tile size is given."""
+        target = buffer / BLOCKS_PER_BUFFER if buffer > 0 else (size or 50.0)
+        if size is None:
+            return float(target)
+        return float(size / max(1, math.ceil(size / target - 1e-9)))
+
+    @property
+    def blocks(self) -> int:
+        """Blocks along a tile's side."""
+        return int(round(self.size / self.block))
+
+    @property
+    def reach(self) -> int:
+        """Blocks read beyond a tile's square on each side."""
+        return int(math.ceil(self.buffer / self.block - 1e-9))
+
+    def block_of(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The block (column, row) of each point."""
+        xy = np.asarray(xy, np.float64)
+        return (np.floor(xy[:, 0] / self.block).astype(np.int64),
+                np.floor(xy[:, 1] / self.block).astype(np.int64))
 
     def home(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The home tile (column, row) of each point."""
-        xy = np.asarray(xy, np.float64)
-        return (np.floor(xy[:, 0] / self.size).astype(np.int64),
-                np.floor(xy[:, 1] / self.size).astype(np.int64))
+        """The home tile (column, row) of each point: the tile of its block."""
+        bi, bj = self.block_of(xy)
+        return (bi - self.origin[0]) // self.blocks, (bj - self.origin[1]) // self.blocks
 
     def core(self, i: int, j: int) -> tuple[float, float, float, float]:
         """A tile's own square: ``(x0, y0, x1, y1)``."""
-        return (i * self.size, j * self.size, (i + 1) * self.size, (j + 1) * self.size)
+        x0, y0 = self.origin[0] * self.block, self.origin[1] * self.block
+        return (x0 + i * self.size, y0 + j * self.size, x0 + (i + 1) * self.size, y0 + (j + 1) * self.size)
 
-    def assign(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Every (tile, point) pair: the tiles' columns and rows, and the points' rows."""
-        i, j = self.home(xy)
-        fx = np.asarray(xy)[:, 0] - i * self.size
-        fy = np.asarray(xy)[:, 1] - j * self.size
-        near = {-1: (fx < self.buffer, fy < self.buffer), 0: (None, None),
-                1: (fx >= self.size - self.buffer, fy >= self.size - self.buffer)}
+    def tiles_of_blocks(self, bi: np.ndarray, bj: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every (tile, block) pair where the tile reads the block: the tiles' columns and
+        rows, and the blocks' rows in ``bi``, ``bj``."""
+        k, b = self.blocks, self.reach
+        bi, bj = np.asarray(bi) - self.origin[0], np.asarray(bj) - self.origin[1]
+        lo_i, hi_i = (bi - b) // k, (bi + b) // k
+        lo_j, hi_j = (bj - b) // k, (bj + b) // k
+        span = (2 * b) // k + 1
         ti, tj, rows = [], [], []
-        for di in (-1, 0, 1):
-            for dj in (-1, 0, 1):
-                mx, my = near[di][0], near[dj][1]
-                m = np.ones(len(i), bool) if mx is None else mx
-                if my is not None:
-                    m = m & my
-                r = np.flatnonzero(m)
-                ti.append(i[r] + di)
-                tj.append(j[r] + dj)
+        for di in range(span + 1):
+            for dj in range(span + 1):
+                r = np.flatnonzero((lo_i + di <= hi_i) & (lo_j + dj <= hi_j))
+                ti.append(lo_i[r] + di)
+                tj.append(lo_j[r] + dj)
                 rows.append(r)
         return np.concatenate(ti), np.concatenate(tj), np.concatenate(rows)
 
 
 @dataclass(frozen=True)
+class BinnedChunk:
+    """One chunk of a file on disk, sorted by block: ``keys`` the blocks it holds (packed,
+    ascending) and ``starts`` their first rows (one more entry: the chunk's length)."""
+
+    path: str
+    keys: np.ndarray
+    starts: np.ndarray
+
+
+@dataclass(frozen=True)
 class FileBins:
-    """What streaming one file into tiles found: its tile parts and counts, the occupied
+    """What streaming one file into blocks found: its chunks on disk, the occupied
     stray-search cells, its own line numbers and fields."""
 
     file: int
     path: str
     n: int
-    parts: Mapping[tuple[int, int], tuple[str, ...]]
-    home_counts: Mapping[tuple[int, int], int]
+    chunks: tuple[BinnedChunk, ...]
     cells: np.ndarray  # (M, 2) int: occupied STRAY_CELL cells
     cell_counts: np.ndarray  # (M,)
     lines: np.ndarray  # the file's own line numbers, sorted
@@ -113,19 +163,20 @@ def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any]) -> Iterator
         yield read(path, **read_options)
 
 
-def bin_file(path: str | os.PathLike[str], file_index: int, plan: TilePlan, workdir: str | os.PathLike[str],
+def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdir: str | os.PathLike[str],
              read_options: Mapping[str, Any] | None = None, chunk: int = 2_000_000,
              fields: Sequence[str] | None = None) -> FileBins:
-    """Stream one file into tile parts under ``workdir``.
+    """Stream one file into block-sorted chunks under ``workdir``.
 
     Parameters
     ----------
     path : path-like
     file_index : int
         The file's place in the survey (stored with every sounding as ``file``).
-    plan : TilePlan
+    block : float
+        Block side (m), from (0, 0): :attr:`TilePlan.block`.
     workdir : path-like
-        Parts go to ``workdir/<i>_<j>/f<file>_c<chunk>.npy``.
+        Chunks go to ``workdir/f<file>_c<chunk>.npy``.
     read_options : mapping, optional
         For :func:`mbinspect.io.read`.
     chunk : int
@@ -140,9 +191,8 @@ def bin_file(path: str | os.PathLike[str], file_index: int, plan: TilePlan, work
     """
     p = Path(path)
     opts = dict(read_options or {})
-    parts: dict[tuple[int, int], list[str]] = {}
-    home: dict[tuple[int, int], int] = {}
-    cells, counts, lines = [], [], []
+    chunks: list[BinnedChunk] = []
+    cells, lines = [], []
     n, crs, names = 0, None, None
     lo = np.full(2, np.inf)
     hi = np.full(2, -np.inf)
@@ -153,74 +203,179 @@ def bin_file(path: str | os.PathLike[str], file_index: int, plan: TilePlan, work
             names = tuple(sorted(cloud.fields))
         if cloud.meta.get("z_doubt"):
             raise InputError(str(cloud.meta["z_doubt"]))
+        if len(cloud) == 0:
+            continue
         n += len(cloud)
-        lo = np.minimum(lo, cloud.xyz[:, :2].min(axis=0))
-        hi = np.maximum(hi, cloud.xyz[:, :2].max(axis=0))
+        xy = cloud.xyz[:, :2]
+        lo = np.minimum(lo, xy.min(axis=0))
+        hi = np.maximum(hi, xy.max(axis=0))
         table = _table(cloud, file_index, fields)
         lines.append(np.unique(table["file_line"]))
-        ij = np.floor(cloud.xyz[:, :2] / STRAY_CELL).astype(np.int64)
-        u, k = np.unique(ij, axis=0, return_counts=True)
-        cells.append(u)
-        counts.append(k)
-        hi_, hj_ = plan.home(cloud.xyz)
-        hk, hn = np.unique(np.column_stack([hi_, hj_]), axis=0, return_counts=True)
-        for (a, b), m in zip(hk.tolist(), hn.tolist(), strict=True):
-            home[(a, b)] = home.get((a, b), 0) + m
-        ti, tj, rows = plan.assign(cloud.xyz)
-        packed = _pack(ti, tj)
-        order = np.argsort(packed, kind="stable")
-        packed, ti, tj, rows = packed[order], ti[order], tj[order], rows[order]
-        starts = np.flatnonzero(np.r_[True, packed[1:] != packed[:-1]])
-        ends = np.r_[starts[1:], len(packed)]
-        for s, e in zip(starts, ends, strict=True):
-            key = (int(ti[s]), int(tj[s]))
-            folder = Path(workdir) / f"{key[0]}_{key[1]}"
-            folder.mkdir(parents=True, exist_ok=True)
-            out = folder / f"f{file_index:05d}_c{c:05d}.npy"
-            np.save(out, table[np.sort(rows[s:e])], allow_pickle=False)
-            parts.setdefault(key, []).append(str(out))
+        cells.append(_pack(np.floor(xy[:, 0] / STRAY_CELL), np.floor(xy[:, 1] / STRAY_CELL)))
+        key = _pack(np.floor(xy[:, 0] / block), np.floor(xy[:, 1] / block))
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        out = Path(workdir) / f"f{file_index:05d}_c{c:05d}.npy"
+        np.save(out, table[order], allow_pickle=False)
+        chunks.append(BinnedChunk(str(out), key[starts], np.r_[starts, len(key)].astype(np.int64)))
     if n == 0:
         raise InputError(f"{p}: the file holds no points")
-    allc = np.concatenate(cells)
-    allk = np.concatenate(counts)
-    u, inv = np.unique(allc, axis=0, return_inverse=True)
-    return FileBins(file_index, str(p), n, {k: tuple(v) for k, v in parts.items()}, home, u,
-                    np.bincount(inv.ravel(), weights=allk).astype(np.int64),
+    u, k = np.unique(np.concatenate(cells), return_counts=True)
+    return FileBins(file_index, str(p), n, tuple(chunks), _unpack(u), k.astype(np.int64),
                     np.unique(np.concatenate(lines)), names or (), crs,
                     (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])), meta)
 
 
 def _pack(i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Two cell indices as one int64 (each within ±2³⁰)."""
+    """Two cell indices as one int64 (each within ±2³⁰), ordered by ``i`` then ``j``."""
     return (np.asarray(i, np.int64) + (1 << 30)) * (1 << 31) + (np.asarray(j, np.int64) + (1 << 30))
 
 
+def _unpack(key: np.ndarray) -> np.ndarray:
+    """The (M, 2) cell indices of packed keys."""
+    key = np.asarray(key, np.int64)
+    return np.column_stack([key // (1 << 31) - (1 << 30), key % (1 << 31) - (1 << 30)])
+
+
 def _table(cloud: PointCloud, file_index: int, keep: Sequence[str] | None = None) -> np.ndarray:
-    """A chunk as one structured array: x, y, z, file, file_line and the other fields
-    (those in ``keep`` when given)."""
+    """A chunk as one structured array: x, y, z, file, file_line, its row and the other
+    fields (those in ``keep`` when given)."""
     skip = {"line", "file"}
     fields = {k: np.asarray(v) for k, v in sorted(cloud.fields.items())
               if k not in skip and (keep is None or k in keep)}
-    dtype = [("x", "f8"), ("y", "f8"), ("z", "f8"), ("file", "i4"), ("file_line", "i8")]
+    dtype = [("x", "f8"), ("y", "f8"), ("z", "f8"), ("file", "i4"), ("file_line", "i8"), (ROW, "u4")]
     dtype += [(k, v.dtype.str) for k, v in fields.items()]
     t = np.empty(len(cloud), dtype=dtype)
     t["x"], t["y"], t["z"] = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
     t["file"] = file_index
     t["file_line"] = np.asarray(cloud.fields.get("line", np.zeros(len(cloud))), np.int64)
+    t[ROW] = np.arange(len(cloud), dtype=np.uint32)
     for k, v in fields.items():
         t[k] = v
     return t
 
 
-def load_tile(parts: Sequence[str], *, line_offsets: Mapping[int, tuple[int, np.ndarray]],
-              stray: np.ndarray | None = None, files: Sequence[str] = (), crs: str | None = None
-              ) -> PointCloud:
-    """A tile's parts read back as one cloud, in file and chunk order.
+def block_counts(bins: Sequence[FileBins]) -> tuple[np.ndarray, np.ndarray]:
+    """The survey's occupied blocks (M, 2) and the soundings in each."""
+    keys = np.concatenate([c.keys for b in bins for c in b.chunks])
+    counts = np.concatenate([np.diff(c.starts) for b in bins for c in b.chunks])
+    u, inv = np.unique(keys, return_inverse=True)
+    return _unpack(u), np.bincount(inv.ravel(), weights=counts).astype(np.int64)
+
+
+def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Soundings each tile reads (its blocks and buffer) and holds (its own blocks), for
+    the tiles that hold any."""
+    ti, tj, rows = plan.tiles_of_blocks(blocks[:, 0], blocks[:, 1])
+    key = _pack(ti, tj)
+    u, inv = np.unique(key, return_inverse=True)
+    reads = np.bincount(inv.ravel(), weights=counts[rows])
+    homes = _pack((blocks[:, 0] - plan.origin[0]) // plan.blocks,
+                  (blocks[:, 1] - plan.origin[1]) // plan.blocks)
+    owns = np.bincount(np.searchsorted(u, homes), weights=counts, minlength=len(u))
+    return reads[owns > 0], owns[owns > 0]
+
+
+def _makespan(loads: np.ndarray, workers: int, overhead: float) -> float:
+    """The longest worker's load when the largest tiles go first to the least loaded."""
+    heap = [0.0] * max(1, workers)
+    for w in np.sort(loads)[::-1]:
+        heapq.heappush(heap, heapq.heappop(heap) + float(w) + overhead)
+    return max(heap)
+
+
+def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: float, *, budget: float,
+                workers: int, overhead: float = 2e5, origins: int = 6) -> tuple[TilePlan, dict[str, Any]]:
+    """The tiles (a side of whole blocks and where the lattice starts) that finish soonest
+    on ``workers`` with no tile reading more than ``budget`` soundings.
+
+    Every side from the smallest the buffer allows to one tile over the whole survey is
+    tried, each from up to ``origins`` × ``origins`` starting blocks, on the exact block
+    counts: the tiles' reads (own soundings and buffer) are scheduled largest first, each
+    with ``overhead`` soundings' worth of start-up. Where no plan keeps every tile within
+    the budget, the one with the smallest largest tile.
+
+    Returns
+    -------
+    plan : TilePlan
+    info : dict
+        ``tiles``, ``largest`` (soundings read by the largest tile), ``read`` (in all),
+        ``within_budget``.
+    """
+    reach = math.ceil(buffer / block - 1e-9)
+    lo = blocks.min(axis=0) if len(blocks) else np.zeros(2, np.int64)
+    span = int((blocks.max(axis=0) - lo).max()) + 1 if len(blocks) else 1
+    best: tuple[Any, ...] = ((True, math.inf),)
+    for k in range(2 * reach + 1, max(2 * reach + 1, span + 1) + 1):
+        smallest = math.inf
+        steps = range(0, k, max(1, math.ceil(k / origins)))
+        for oi in steps:
+            for oj in steps:
+                plan = TilePlan(k * block, buffer, block, (int(lo[0]) - oi, int(lo[1]) - oj))
+                reads, _ = _tile_loads(plan, blocks, counts)
+                largest = float(reads.max())
+                smallest = min(smallest, largest)
+                fits = largest <= budget
+                score = (not fits, _makespan(reads, workers, overhead) if fits else largest)
+                if score < best[0]:
+                    best = (score, plan, {"tiles": len(reads), "largest": int(largest),
+                                          "read": int(reads.sum()), "within_budget": fits})
+        if smallest > 2 * budget and not best[0][0]:
+            break  # larger tiles only grow further past the budget
+    return best[1], best[2]
+
+
+def tile_slices(plan: TilePlan, bins: Sequence[FileBins]
+                ) -> tuple[dict[tuple[int, int], list[tuple[str, tuple[tuple[int, int], ...]]]],
+                           dict[tuple[int, int], int]]:
+    """For every tile that holds soundings: the row ranges it reads from each chunk (in
+    file and chunk order), and the soundings it holds."""
+    reads: dict[tuple[int, int], list[tuple[str, tuple[tuple[int, int], ...]]]] = {}
+    owns: dict[tuple[int, int], int] = {}
+    for b in bins:
+        for c in b.chunks:
+            ij = _unpack(c.keys)
+            sizes = np.diff(c.starts)
+            hk, hn = np.unique(_pack((ij[:, 0] - plan.origin[0]) // plan.blocks,
+                                     (ij[:, 1] - plan.origin[1]) // plan.blocks), return_inverse=True)
+            for key, m in zip(_unpack(hk).tolist(), np.bincount(hn.ravel(), weights=sizes).tolist(),
+                              strict=True):
+                owns[(key[0], key[1])] = owns.get((key[0], key[1]), 0) + int(m)
+            ti, tj, rows = plan.tiles_of_blocks(ij[:, 0], ij[:, 1])
+            order = np.lexsort((rows, tj, ti))
+            ti, tj, rows = ti[order], tj[order], rows[order]
+            cut = np.flatnonzero(np.r_[True, (ti[1:] != ti[:-1]) | (tj[1:] != tj[:-1]), True])
+            for s, e in zip(cut[:-1], cut[1:], strict=True):
+                r = rows[s:e]
+                # consecutive blocks are one range of rows
+                first = np.flatnonzero(np.r_[True, r[1:] != r[:-1] + 1])
+                last = np.r_[first[1:], len(r)] - 1
+                ranges = tuple((int(c.starts[r[a]]), int(c.starts[r[z] + 1])) for a, z in zip(first, last,
+                                                                                               strict=True))
+                reads.setdefault((int(ti[s]), int(tj[s])), []).append((c.path, ranges))
+    return {k: v for k, v in reads.items() if k in owns}, owns
+
+
+def _npy_header(path: str) -> tuple[np.dtype[Any], int]:
+    """The record type of a ``.npy`` file and where its data start."""
+    with open(path, "rb") as f:
+        major, _ = np.lib.format.read_magic(f)
+        read = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
+        _, _, dtype = read(f)
+        return np.dtype(dtype), f.tell()
+
+
+def load_tile(slices: Sequence[tuple[str, Sequence[tuple[int, int]]]], *,
+              line_offsets: Mapping[int, tuple[int, np.ndarray]], stray: np.ndarray | None = None,
+              files: Sequence[str] = (), crs: str | None = None) -> PointCloud:
+    """A tile's soundings read back as one cloud, in the order of the survey's files.
 
     Parameters
     ----------
-    parts : sequence of str
-        The tile's part files.
+    slices : sequence of (str, sequence of (int, int))
+        Each chunk file the tile reads and the row ranges it reads there
+        (:func:`tile_slices`).
     line_offsets : mapping
         For each file index, ``(first survey line, the file's own lines sorted)``: a
         sounding's ``line`` is the survey line of its (file, own line), numbered as
@@ -234,27 +389,44 @@ def load_tile(parts: Sequence[str], *, line_offsets: Mapping[int, tuple[int, np.
     Returns
     -------
     PointCloud
-        Fields ``file``, ``line`` and those every part holds; ``meta["strays_removed"]``.
+        Fields ``file``, ``line`` and those every chunk holds; ``meta["strays_removed"]``.
     """
-    tables = [np.load(f, allow_pickle=False) for f in sorted(parts)]
-    common = set(tables[0].dtype.names or ())
-    for t in tables[1:]:
-        common &= set(t.dtype.names or ())
-    cols = {k: np.concatenate([t[k] for t in tables]) for k in sorted(common)}
-    xyz = np.column_stack([cols.pop("x"), cols.pop("y"), cols.pop("z")])
-    file_index = cols["file"]
-    own = cols.pop("file_line")
-    line = np.zeros(len(xyz), np.int32)
-    for f in np.unique(file_index):
-        rows = file_index == f
-        first, known = line_offsets[int(f)]
-        line[rows] = first + np.searchsorted(known, own[rows])
+    heads = [_npy_header(path) for path, _ in sorted(slices)]
+    ranges = [r for _, r in sorted(slices)]
+    dtypes = [dt for dt, _ in heads]
+    common = set(dtypes[0].names or ()) - {ROW, "file_line"}
+    for dt in dtypes[1:]:
+        common &= set(dt.names or ())
+    n = sum(b - a for rs in ranges for a, b in rs)
+    xyz = np.empty((n, 3))
+    cols = {k: np.empty(n, np.result_type(*(dt[k] for dt in dtypes)))
+            for k in sorted(common - {"x", "y", "z"})}
+    line = np.empty(n, np.int32)
+    at = 0
+    for (path, _), (dt, offset), rs in zip(sorted(slices), heads, ranges, strict=True):
+        # plain reads, not a memory map: only the rows read count in the worker's memory
+        with open(path, "rb") as f:
+            pieces = []
+            for a, b in rs:
+                f.seek(offset + a * dt.itemsize)
+                pieces.append(np.fromfile(f, dtype=dt, count=b - a))
+        part = np.concatenate(pieces) if len(pieces) > 1 else pieces[0]
+        if (np.diff(part[ROW].astype(np.int64)) < 0).any():  # blocks back in the file's order
+            part = part[np.argsort(part[ROW], kind="stable")]
+        end = at + len(part)
+        xyz[at:end, 0], xyz[at:end, 1], xyz[at:end, 2] = part["x"], part["y"], part["z"]
+        for k, v in cols.items():
+            v[at:end] = part[k]
+        first, known = line_offsets[int(part["file"][0])]
+        line[at:end] = first + np.searchsorted(known, part["file_line"])
+        at = end
     cols["line"] = line
     if stray is not None and len(stray):
-        ij = np.floor(xyz[:, :2] / STRAY_CELL).astype(np.int64)
         stray = np.asarray(stray, np.int64)
-        bad = np.isin(_pack(ij[:, 0], ij[:, 1]), _pack(stray[:, 0], stray[:, 1]))
-        xyz = xyz[~bad]
-        cols = {k: v[~bad] for k, v in cols.items()}
+        bad = np.isin(_pack(np.floor(xyz[:, 0] / STRAY_CELL), np.floor(xyz[:, 1] / STRAY_CELL)),
+                      _pack(stray[:, 0], stray[:, 1]))
+        if bad.any():
+            xyz = xyz[~bad]
+            cols = {k: v[~bad] for k, v in cols.items()}
     meta = {"files": list(files), "strays_removed": True, "format": "tile"}
     return PointCloud(xyz, cols, source="tile", crs=crs, meta=meta)
