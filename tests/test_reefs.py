@@ -134,8 +134,10 @@ def test_sand_waves_use_the_local_surface_and_rough_shore_is_excluded():
     assert res.seabed["method"] == "grid" and "why" in res.seabed
     assert res.region is not None and res.region.excluded_area > 500
     assert (res.evaluation.tp, res.evaluation.fp) == (25, 0)
-    kept = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False)
-    assert kept.evaluation.fp > 5  # rocks taken for reefs without the exclusion
+    kept = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False, rounded_spread=0)
+    assert kept.evaluation.fp > 5  # rocks taken for reefs without the exclusion and the shape test
+    shaped = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False)
+    assert shaped.evaluation.fp < kept.evaluation.fp  # the shape test alone sets most aside as rounded
 
 
 def test_rough_terrain_ignores_reef_groups(reef_small):
@@ -298,16 +300,24 @@ def test_a_half_metre_gridded_export_keeps_its_reefs():
     assert res.filters["radius"]["n_removed"] <= 0.01 * len(grid)
 
 
-def test_rocks_of_reef_size_are_not_reefs_given_the_designs():
+def test_rocks_of_reef_size_are_not_reefs():
     """Rounded rocks (ellipsoids, some two-lobed, 1.2-2.6 m across) among crosses and hollow
-    squares: without designs five pass for reefs; with them every rock is listed among the
-    others with the reason (a design fits it only far smaller than built), and no reef is lost."""
+    squares: without the shape test four pass for reefs; by their domed tops two of them
+    are listed among the others as rounded, with no design given; with the designs every
+    rock is listed with the reason (a design fits it only far smaller than built). No reef
+    is lost either way."""
     sim = simulate("reef-field", seed=3, groups="cross1,hollow", per_group=4, rocks=6, close_pairs=0,
                    boulders=0, debris=0)
     rocks = [d for d in sim.truth["distractors"] if d["kind"] == "rock"]
     assert len(rocks) == 6 and sim.truth["counts"]["boulder"] > 200
-    free = extract_reefs(sim.cloud, reference=_reference(sim)).evaluation
-    assert free is not None and free.fp >= 3  # the case is real
+    blind = extract_reefs(sim.cloud, reference=_reference(sim), rounded_spread=0).evaluation
+    assert blind is not None and (blind.tp, blind.fn) == (8, 0) and blind.fp >= 3  # the case is real
+    free = extract_reefs(sim.cloud, reference=_reference(sim))
+    assert free.evaluation is not None and (free.evaluation.tp, free.evaluation.fn) == (8, 0)
+    assert free.evaluation.fp <= blind.fp - 2
+    rounded = [o for o in free.others if o["reason"].startswith("rounded")]
+    assert len(rounded) >= 2
+    assert all(min(math.hypot(o["x"] - r["x"], o["y"] - r["y"]) for r in rocks) < 1.0 for o in rounded)
     res = extract_reefs(sim.cloud, reference=_reference(sim), design="cross1,hollow")
     ev = res.evaluation
     assert ev is not None and (ev.tp, ev.fp, ev.fn) == (8, 0, 0)
@@ -315,3 +325,17 @@ def test_rocks_of_reef_size_are_not_reefs_given_the_designs():
         near = [o for o in res.others if math.hypot(o["x"] - rock["x"], o["y"] - rock["y"]) < 1.0]
         assert near and all(o["reason"] for o in near)
     assert sum("design only at" in o["reason"] for o in res.others) >= 3
+
+
+def test_a_dome_is_rounded_and_a_flat_top_is_not():
+    from mbinspect.reefs.run import rounded_shape
+
+    rng = np.random.default_rng(2)
+    r = np.sqrt(rng.uniform(0, 1, 3000))
+    # a sunk ellipsoid: the top 0.9 of its half-axis shows
+    dome = 1.2 * (np.sqrt(1 - (0.9 * r) ** 2) - np.sqrt(0.19)) / (1 - np.sqrt(0.19))
+    spread, plateau = rounded_shape(dome + rng.normal(0, 0.03, len(r)))
+    assert spread >= 0.12 and plateau <= 0.42
+    top = np.r_[np.full(2400, 1.2), rng.uniform(0.15, 1.2, 600)] + rng.normal(0, 0.03, 3000)  # top and walls
+    spread, plateau = rounded_shape(top)
+    assert spread < 0.12 and plateau > 0.42

@@ -229,8 +229,9 @@ def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.
     bi0, bj0 = int(bi.min()), int(bj.min())
     bi, bj = bi - bi0, bj - bj0
     nbx, nby = int(bi.max()) + 1, int(bj.max()) + 1
-    hist = np.zeros((nbx + 1, nby + 1, SPACING_BINS), np.int32)
-    np.add.at(hist, (bi + 1, bj + 1, mm), 1)
+    flat = ((bi + 1) * (nby + 1) + (bj + 1)) * SPACING_BINS + mm
+    hist = np.bincount(flat, minlength=(nbx + 1) * (nby + 1) * SPACING_BINS).astype(np.int32)
+    hist = hist.reshape(nbx + 1, nby + 1, SPACING_BINS)
     table = hist.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)
     ny, nx = comp.shape
     cj, ci = np.nonzero(comp)

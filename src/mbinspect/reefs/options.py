@@ -91,6 +91,14 @@ class ReefOptions(Options):
     design_scale_tolerance: float = option(0.15, help="with designs: reefs are built within this fraction of "
                                            "their design's size; a rounded rock fits one only much smaller",
                                            check="fraction", metavar="SHARE")
+    rounded_spread: float = option(0.12, help="rocks are rounded: a candidate whose highest soundings "
+                                   "(three in ten) spread (10th to 90th percentile) over at least this share "
+                                   "of its height, with few soundings near its top (rounded_plateau), is a "
+                                   "rock (0: off)",
+                                   check="non_negative", metavar="SHARE")
+    rounded_plateau: float = option(0.42, help="rocks are rounded: at most this share of a rock's soundings "
+                                    "lie within 0.15 of its height below its top (a reef's flat top holds "
+                                    "more)", check="fraction", metavar="SHARE")
     min_pings: int = option(3, help="a reef's soundings must come from at least this many pings (where the "
                             "input has pings): one ping's streak across a ripple crest has no plan shape",
                             check="count", metavar="N")

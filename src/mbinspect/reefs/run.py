@@ -8,6 +8,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .. import __version__
 from ..errors import DataError, ParameterError
@@ -257,15 +258,16 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     for p in small:
         others.append(_other(measure_reef(points, p, raster, seabed, is_reef=is_reef),
                              f"smaller than `min_area` {options.min_area:g} m²"))
-    kept, kept_parts = [], []
-    for r, p in zip(reefs, parts, strict=True):
-        why = _not_a_reef(r, p, raster, is_reef, ping, options)
+    kept, kept_members = [], []
+    for r, p, m in zip(reefs, parts, _members(points, is_reef, raster, parts), strict=True):
+        why = (_not_a_reef(r, p, raster, is_reef, ping, options)
+               or _rounded(points, r, p, raster, height, options))
         if why:
             others.append(_other(r, why))
         else:
             kept.append(r)
-            kept_parts.append(p)
-    return kept, others, used_area, _members(points, is_reef, raster, kept_parts)
+            kept_members.append(m)
+    return kept, others, used_area, kept_members
 
 
 def _members(points: np.ndarray, is_reef: np.ndarray, raster: Raster, parts: list[np.ndarray]
@@ -321,6 +323,73 @@ def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Raster, is_reef: np.ndarr
         if n < options.min_pings:
             return (f"seen by {n} ping{'s' * (n != 1)} (`min_pings` {options.min_pings}): "
                     "its plan shape is unknown")
+    return None
+
+
+#: Share of a candidate's height counted as its top (``rounded_plateau``), and the share of
+#: its soundings, highest first, whose spread is its top's (``rounded_spread``).
+PLATEAU_DEPTH = 0.15
+TOP_SHARE = 0.3
+
+
+def rounded_shape(height: np.ndarray) -> tuple[float, float]:
+    """How rounded a candidate is, from the heights of its surface (one per footprint cell,
+    or per sounding) above one level.
+
+    Returns
+    -------
+    spread : float
+        The 10th to 90th percentile of its highest :data:`TOP_SHARE` surface, as a share of
+        its top (the 95th percentile): a reef's flat top holds it to the noise, a rock's
+        dome spreads it.
+    plateau : float
+        The share of its surface within :data:`PLATEAU_DEPTH` of its top below it: most of a
+        reef's, little of a rock's.
+
+    Examples
+    --------
+    >>> r = np.sqrt(np.random.default_rng(0).uniform(0, 1, 2000))  # even over a disc
+    >>> [round(v, 2) for v in rounded_shape(np.sqrt(1 - r**2))]  # a dome
+    [0.14, 0.31]
+    >>> [round(v, 2) for v in rounded_shape(np.r_[np.full(900, 1.0), np.linspace(0.2, 1, 100)])]  # a box
+    [0.0, 0.92]
+    """
+    h = np.asarray(height, np.float64)
+    if len(h) < 10:
+        return math.nan, math.nan
+    top = float(np.percentile(h, 95))
+    high = h[h >= np.percentile(h, 100 * (1 - TOP_SHARE))]
+    spread = float(np.percentile(high, 90) - np.percentile(high, 10)) / top
+    return spread, float(np.mean(h >= (1 - PLATEAU_DEPTH) * top))
+
+
+#: Soundings across a candidate's width below which its shape is not judged: a coarser
+#: grid blurs a flat top's edges into a dome (a 0.5 m export of 3 m crosses looks rounded).
+SHAPE_SOUNDINGS_ACROSS = 8
+
+
+def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, height: np.ndarray,
+             options: ReefOptions) -> str | None:
+    """Why a candidate is a rock by its shape, or None: :func:`rounded_shape` of the elevation
+    of each footprint cell's nearest sounding above the seabed at its centre (its surface by
+    plan area, however many soundings its walls caught from oblique beams; elevations, not
+    heights above a seabed that bends under it on a sand wave). Not judged where its
+    soundings lie too far apart to show a shape (:data:`SHAPE_SOUNDINGS_ACROSS`)."""
+    if not options.rounded_spread:
+        return None
+    idx = raster.nearest.ravel()[cells]
+    idx = idx[idx >= 0]
+    own = np.unique(idx)
+    if len(own) < 10:
+        return None
+    spacing = float(np.median(cKDTree(points[own, :2]).query(points[own, :2], k=2)[0][:, 1]))
+    if spacing > reef.width / SHAPE_SOUNDINGS_ACROSS:
+        return None
+    spread, plateau = rounded_shape(points[idx, 2] - reef.z_seabed)
+    if spread >= options.rounded_spread and plateau <= options.rounded_plateau:
+        return (f"rounded: its highest soundings spread over {spread:.0%} of its height (`rounded_spread` "
+                f"{options.rounded_spread:g}) and {plateau:.0%} lie near its top (`rounded_plateau` "
+                f"{options.rounded_plateau:g}): a rock, not a reef's flat top")
     return None
 
 
