@@ -18,12 +18,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .checks import check_points
 from .errors import ParameterError
-from .grid import cell_index
+from .grid import near_rows
 
 __all__ = ["radius_outlier", "statistical_outlier", "FilterReport"]
 
@@ -92,12 +91,7 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     if len(todo) == 0:
         return keep
     # the neighbours of a doubtful point lie in the 3 x 3 plan cells of side r around it
-    ci, cj = cell_index(pts, lo[0], lo[1], radius)
-    nx, ny = int(ci.max()) + 1, int(cj.max()) + 1
-    need = np.zeros((nx, ny), dtype=np.uint8)
-    need[ci[todo], cj[todo]] = 1
-    need = ndimage.maximum_filter(need, size=3, mode="constant")
-    cand = np.flatnonzero(need[ci, cj])
+    cand = near_rows(pts, todo, radius)
     # an unbalanced tree builds twice as fast and answers these short queries as well
     tree = cKDTree(pts[cand], balanced_tree=False, compact_nodes=False)
     d, _ = tree.query(pts[todo], k=min_neighbors + 2, distance_upper_bound=radius, workers=workers)

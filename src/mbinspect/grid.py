@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow", "coverage",
-           "sounding_spacing", "stray_soundings", "stray_cells", "STRAY_SHARE"]
+__all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
+           "coverage", "sounding_spacing", "stray_soundings", "stray_cells", "STRAY_SHARE"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -55,6 +55,23 @@ def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[n
     i = np.floor((points[:, 0] - x0) * inv).astype(np.int64)
     j = np.floor((points[:, 1] - y0) * inv).astype(np.int64)
     return i, j
+
+
+def near_rows(points: np.ndarray, rows: np.ndarray, side: float) -> np.ndarray:
+    """The points in the 3 x 3 plan cells of ``side`` m around each of ``rows`` (cells from
+    the points' lowest corner): every point within ``side`` m of one of them in plan, and
+    few more, for a search that need not ask all the points.
+
+    Examples
+    --------
+    >>> pts = np.array([[0.0, 0.0], [0.9, 0.0], [2.5, 0.0], [5.0, 5.0]])
+    >>> near_rows(pts, np.array([0]), 1.0).tolist()
+    [0, 1]
+    """
+    ci, cj = cell_index(points, float(points[:, 0].min()), float(points[:, 1].min()), side)
+    need = np.zeros((int(ci.max()) + 1, int(cj.max()) + 1), dtype=np.uint8)
+    need[ci[rows], cj[rows]] = 1
+    return np.flatnonzero(ndimage.maximum_filter(need, size=3, mode="constant")[ci, cj])
 
 
 def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

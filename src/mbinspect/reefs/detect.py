@@ -6,12 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ..checks import fail, positive
 from ..filters import FilterReport, radius_outlier
-from ..grid import cell_index
+from ..grid import near_rows
 from .ground import Seabed
 
 __all__ = ["radius_keeping", "denoise", "reef_points", "clean_reef_points"]
@@ -87,14 +86,10 @@ def _spacing_rescue(pts: np.ndarray, candidates: np.ndarray, radius: float, min_
     dk = np.full(len(rows), np.inf)
     limit = np.full(len(rows), np.inf)
     todo = np.arange(len(rows))
-    lo = (float(local[:, 0].min()), float(local[:, 1].min()))
     for side in (radius, 8 * radius, 64 * radius, math.inf):
         at = rows[todo]
         if math.isfinite(side):
-            ci, cj = cell_index(local, lo[0], lo[1], side)
-            need = np.zeros((int(ci.max()) + 1, int(cj.max()) + 1), dtype=np.uint8)
-            need[ci[at], cj[at]] = 1
-            near = np.flatnonzero(ndimage.maximum_filter(need, size=3, mode="constant")[ci, cj])
+            near = near_rows(local, at, side)
             d3, d2 = _rescue_distances(local[near], local[at], k, kp, chunk)
         else:
             d3, d2 = _rescue_distances(local, local[at], k, kp, chunk)
