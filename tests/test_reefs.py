@@ -339,3 +339,17 @@ def test_a_dome_is_rounded_and_a_flat_top_is_not():
     top = np.r_[np.full(2400, 1.2), rng.uniform(0.15, 1.2, 600)] + rng.normal(0, 0.03, 3000)  # top and walls
     spread, plateau = rounded_shape(top)
     assert spread < 0.12 and plateau > 0.42
+
+
+def test_a_group_of_buried_reefs_is_not_rough_ground():
+    """25 double crosses sunk 0-0.6 m: the tops of the deepest stand 0.4-0.5 m proud, which
+    the roughness band once counted as rough ground (11 of them excluded with their patch);
+    every reef is found at its exposed height."""
+    sim = simulate("reef-field", seed=1, groups="cross2", burial_max=0.6, close_pairs=0, boulders=0, debris=0)
+    res = extract_reefs(sim.cloud, reference=_reference(sim), seed=1)
+    ev = res.evaluation
+    assert ev is not None and (ev.tp, ev.fp, ev.fn) == (25, 0, 0)
+    assert res.filters.get("rough_terrain", {}).get("excluded_area", 0.0) == 0.0
+    truth = sim.truth["reefs"]
+    assert max(abs(res.reefs[i].height - truth[j]["height"]) for i, j, _ in ev.matches) < 0.1
+    assert min(t["height"] for t in truth) < 1.5  # some are sunk deep

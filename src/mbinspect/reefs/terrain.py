@@ -47,6 +47,13 @@ class TerrainMask:
                 "excluded_cells": int(self.excluded.sum())}
 
 
+#: The soundings whose spread about the seabed counts as its roughness: within 0.5 m below
+#: it and up to this far above it. Not 0.5 m: the tops of reefs sunk 0.5-0.6 m stand 0.3-0.5 m
+#: proud, and a group of them counted as rough ground (10-28 reefs of a group excluded in the
+#: buried and rocky studies); 0.4 m still excludes the simulator's rough shores.
+BAND_TOP = 0.4
+
+
 def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float = 15.0,
                   max_roughness: float = 0.2, min_area: float = 100.0, margin: int = 2,
                   surface: GridSurface | None = None, height: np.ndarray | None = None
@@ -56,7 +63,8 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     Both are measured on the robust local seabed surface (which sees through reefs, so a
     reef group is not "rough"): slope from the surface averaged over ``cell`` m; roughness
     the larger of the RMS of the surface about its 2 m Gaussian smoothing and the RMS of
-    the soundings within ±0.5 m of the surface (rock relief narrower than the opening). Patches are
+    the soundings from 0.5 m below the surface to :data:`BAND_TOP` above it (rock relief
+    narrower than the opening). Patches are
     closed and filled, those smaller than ``min_area`` m² are kept (a lone steep cell is a
     sand-wave lee, not a shore), and the rest widened by ``margin`` cells. ``height`` may
     give the points' heights above ``surface`` when the caller has them.
@@ -112,9 +120,9 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     detail = z - ndimage.gaussian_filter(z, 2.0 / fine.cell, mode="nearest")
     rough = np.sqrt((detail**2).reshape(nx // f, f, ny // f, f).mean(axis=(1, 3)))
     # rocks narrower than the opening window vanish from the surface: measure the soundings
-    # too, within +-0.5 m of it (reef tops stand higher and drop out, rock relief does not)
+    # too, near it (reef tops stand higher and drop out, rock relief does not)
     h = fine.height_above(pts) if height is None or surface is None else height
-    near = np.abs(h) <= 0.5
+    near = (h >= -0.5) & (h <= BAND_TOP)
     ci, cj = cell_index(pts[near], fine.x0, fine.y0, step)
     ok = (ci >= 0) & (ci < nx // f) & (cj >= 0) & (cj < ny // f)
     key = ci[ok] * (ny // f) + cj[ok]
