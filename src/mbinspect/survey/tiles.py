@@ -323,6 +323,8 @@ def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: fl
                                           "read": int(reads.sum()), "within_budget": fits})
         if smallest > 2 * budget and not best[0][0]:
             break  # larger tiles only grow further past the budget
+        if best[2]["tiles"] == 1 and not best[0][0]:
+            break  # one tile within the budget holds the survey: larger tiles read the same
     return best[1], best[2]
 
 
