@@ -8,7 +8,6 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .. import __version__
 from ..errors import DataError, ParameterError
@@ -377,13 +376,9 @@ def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, 
     soundings lie too far apart to show a shape (:data:`SHAPE_SOUNDINGS_ACROSS`)."""
     if not options.rounded_spread:
         return None
-    idx = raster.nearest.ravel()[cells]
-    idx = idx[idx >= 0]
+    idx = _cell_soundings(cells, raster)
     own = np.unique(idx)
-    if len(own) < 10:
-        return None
-    spacing = float(np.median(cKDTree(points[own, :2]).query(points[own, :2], k=2)[0][:, 1]))
-    if spacing > reef.width / SHAPE_SOUNDINGS_ACROSS:
+    if len(own) < 10 or sounding_spacing(points[own]) > reef.width / SHAPE_SOUNDINGS_ACROSS:
         return None
     spread, plateau = rounded_shape(points[idx, 2] - reef.z_seabed)
     if spread >= options.rounded_spread and plateau <= options.rounded_plateau:
@@ -393,8 +388,13 @@ def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, 
     return None
 
 
+def _cell_soundings(cells: np.ndarray, raster: Raster) -> np.ndarray:
+    """The nearest sounding of each of a footprint's cells that has one."""
+    idx = raster.nearest.ravel()[cells]
+    return idx[idx >= 0]
+
+
 def _pings(cells: np.ndarray, raster: Raster, is_reef: np.ndarray, ping: np.ndarray) -> int:
     """How many pings the reef soundings behind a footprint's cells come from."""
-    idx = raster.nearest.ravel()[cells]
-    idx = idx[idx >= 0]
+    idx = _cell_soundings(cells, raster)
     return int(len(np.unique(ping[idx[is_reef[idx]]])))
