@@ -264,9 +264,9 @@ def block_counts(bins: Sequence[FileBins]) -> tuple[np.ndarray, np.ndarray]:
     return _unpack(u), np.bincount(inv.ravel(), weights=counts).astype(np.int64)
 
 
-def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Soundings each tile reads (its blocks and buffer) and holds (its own blocks), for
-    the tiles that hold any."""
+def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Soundings each tile reads (its blocks and buffer), for the tiles that hold any of
+    their own."""
     ti, tj, rows = plan.tiles_of_blocks(blocks[:, 0], blocks[:, 1])
     key = _pack(ti, tj)
     u, inv = np.unique(key, return_inverse=True)
@@ -274,7 +274,7 @@ def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray) -> tuple
     homes = _pack((blocks[:, 0] - plan.origin[0]) // plan.blocks,
                   (blocks[:, 1] - plan.origin[1]) // plan.blocks)
     owns = np.bincount(np.searchsorted(u, homes), weights=counts, minlength=len(u))
-    return reads[owns > 0], owns[owns > 0]
+    return reads[owns > 0]
 
 
 def _makespan(loads: np.ndarray, workers: int, overhead: float) -> float:
@@ -313,7 +313,7 @@ def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: fl
         for oi in steps:
             for oj in steps:
                 plan = TilePlan(k * block, buffer, block, (int(lo[0]) - oi, int(lo[1]) - oj))
-                reads, _ = _tile_loads(plan, blocks, counts)
+                reads = _tile_loads(plan, blocks, counts)
                 largest = float(reads.max())
                 smallest = min(smallest, largest)
                 fits = largest <= budget
