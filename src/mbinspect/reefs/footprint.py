@@ -178,7 +178,9 @@ def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall
         s_src, a, b = src[mine], sj[mine] - y0, si[mine] - x0
         on_wall = is_reef[s_src] & (height[s_src] < wall * local[a, b])
         g = np.column_stack([gx[a, b], gy[a, b]])
-        inward = ((centres[rows[mine]] - points[s_src, :2]) * g).sum(axis=1) >= -TIE * TIE
+        # on the reef's side: the cell centre's offset along the gradient, to TIE (a centre
+        # square to the gradient from its sounding is on the edge in any frame)
+        inward = ((centres[rows[mine]] - points[s_src, :2]) * g).sum(axis=1) >= -TIE * np.hypot(*g.T)
         hit = rows[mine][on_wall]
         close[cj[hit], ci[hit]] = inward[on_wall]
 
@@ -203,9 +205,9 @@ def _nearest(tree: cKDTree, xy: np.ndarray, reach: float, rows: np.ndarray) -> t
 
 
 #: Side (m) of the plan blocks over which the sounding spacing around reef candidates is
-#: counted, and how many blocks each way a candidate region looks (10 to 15 m).
+#: counted, and how many blocks each way a candidate region looks (5 to 10 m).
 SPACING_BLOCK = 5.0
-SPACING_REACH = 2
+SPACING_REACH = 1
 #: Millimetre bins of that count (spacings beyond 1 m count as 1 m).
 SPACING_BINS = 1000
 
@@ -215,7 +217,7 @@ def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.
     """The median distance to the nearest other sounding, over the soundings near reef
     points (``rows``) within :data:`SPACING_REACH` blocks of :data:`SPACING_BLOCK` m of
     each candidate region (index 1..n of ``comp``; 0 gets ``cell``), to the millimetre.
-    (:data:`SPACING_REACH` blocks: up to 15 m.)
+    (:data:`SPACING_REACH` blocks: up to 10 m.)
 
     Blocks lie on a lattice from (0, 0) and distances are counted in millimetre bins with a
     summed-area table, so that a region's spacing is exact, deterministic and the same in

@@ -21,7 +21,7 @@ LEARN_PARTS = 5
 
 #: Single-reef areas are learnt from the parts within this many metres (a tiled survey reads
 #: at least this far beyond each tile).
-AREA_RADIUS = 25.0
+AREA_RADIUS = 20.0
 
 
 def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float, overall: float,
@@ -253,7 +253,7 @@ def split_reefs(points: np.ndarray, is_reef: np.ndarray, *, cell: float = 0.1,
     keeps the footprint unbiased from sparse to dense surveys.
     A part whose area exceeds
     ``split_factor`` times the single-reef area (``reef_area``, or else the median area of
-    the parts of at least ``min_area`` within 25 m, so that each group of a mixed field is
+    the parts of at least ``min_area`` within :data:`AREA_RADIUS` m, so that each group of a mixed field is
     judged by its own kind) holds ``round(area / reef_area)`` reefs and is split by
     seeded K-means on its cells.
 
