@@ -264,6 +264,35 @@ def test_a_shifted_survey_gives_the_same_reefs_and_numbers(reef_small):
             assert abs(b.area - a.area) < 1e-3 and abs(b.height - a.height) < 1e-3
 
 
+def test_fields_kilometres_apart_are_measured_apart_with_the_same_answer(reef_small, monkeypatch):
+    """Two copies of a field 3 km apart (strips of one survey, say): each reef as in its
+    field alone, and no footprint raster spans the gap between them."""
+    from mbinspect.io import PointCloud
+    from mbinspect.reefs import footprint
+
+    base = extract_reefs(reef_small.cloud, seed=0)
+    xyz = reef_small.cloud.xyz
+    both = PointCloud(np.vstack([xyz, xyz + [3000.0, 0.0, 0.0]]),
+                      {k: np.concatenate([v, v]) for k, v in reef_small.cloud.fields.items()})
+    widths = []
+    real = footprint.nearest_label_raster
+
+    def spy(points, is_reef, **kw):
+        out = real(points, is_reef, **kw)
+        widths.append(out[0].shape[1] * kw["cell"])
+        return out
+
+    monkeypatch.setattr("mbinspect.reefs.split.nearest_label_raster", spy)
+    res = extract_reefs(both, seed=0)
+    assert len(widths) == 2 and max(widths) < 500.0
+    assert len(res.reefs) == 2 * len(base.reefs)
+    for shift in (0.0, 3000.0):
+        for a in base.reefs:
+            b = min(res.reefs, key=lambda r: math.hypot(r.x - shift - a.x, r.y - a.y))
+            assert math.hypot(b.x - shift - a.x, b.y - a.y) < 1e-6
+            assert abs(b.area - a.area) < 1e-9 and abs(b.height - a.height) < 1e-9
+
+
 def test_a_filter_that_removes_most_soundings_says_so_and_what_to_give(capsys, tmp_path):
     """A 1 m gridded export: the paper's fixed 0.5 m radius filter removes every sounding,
     and the message names the options and the radius that keeps 99 %. By default the radius

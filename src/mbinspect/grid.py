@@ -10,7 +10,7 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
-           "coverage", "sounding_spacing", "stray_soundings", "stray_cells", "STRAY_SHARE"]
+           "coverage", "sounding_spacing", "stray_soundings", "stray_cells", "cell_groups", "STRAY_SHARE"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -272,21 +272,37 @@ def stray_cells(cells: np.ndarray, counts: np.ndarray, *, gap_cells: int = 4,
     >>> stray_cells(np.array([[0, 0], [1, 0], [200, 0]]), np.array([500, 500, 3])).tolist()
     [False, False, True]
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
     if len(cells) <= 1:
         return np.zeros(len(cells), dtype=bool)
-    pairs = cKDTree(np.asarray(cells, np.float64)).query_pairs(gap_cells + 0.5, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cells), len(cells)))
-    n, group = connected_components(graph, directed=False)
+    n, group = cell_groups(cells, gap_cells)
     if n == 1:
         return np.zeros(len(cells), dtype=bool)
     size = np.bincount(group, weights=counts, minlength=n)
     stray_group = size < share * float(np.sum(counts))
     stray_group[np.argmax(size)] = False
     return stray_group[group]
+
+
+def cell_groups(cells: np.ndarray, gap_cells: int) -> tuple[int, np.ndarray]:
+    """Occupied cells within ``gap_cells`` cells of each other (centre to centre, plus half
+    a cell), chained, as groups: their number and each cell's group (0, 1, ...).
+
+    Examples
+    --------
+    >>> n, group = cell_groups(np.array([[0, 0], [3, 0], [20, 0]]), 4)
+    >>> n, group.tolist()
+    (2, [0, 0, 1])
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if len(cells) <= 1:
+        return len(cells), np.zeros(len(cells), dtype=np.int64)
+    pairs = cKDTree(np.asarray(cells, np.float64)).query_pairs(gap_cells + 0.5, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cells), len(cells)))
+    n, group = connected_components(graph, directed=False)
+    return int(n), group.astype(np.int64)
 
 
 def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0, k: int = 1) -> float:

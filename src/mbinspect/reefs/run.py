@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError, ParameterError
-from ..grid import cell_index, sounding_spacing
+from ..grid import cell_groups, cell_index, sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from ..survey.trace import sources
@@ -28,7 +28,7 @@ from .score import score_reefs
 from .split import split_reefs
 from .terrain import screen_terrain
 
-__all__ = ["extract_reefs", "single_reefs"]
+__all__ = ["extract_reefs", "single_reefs", "reef_islands"]
 
 
 #: Least share of its design's height a reef fitted by that design shows above the seabed
@@ -167,7 +167,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     others: list[dict[str, Any]] = []
     used_area = None
     if is_reef.any() and local:
-        reefs, others, used_area, members = single_reefs(kept, is_reef, surf, h_all, opts, ping=ping)
+        reefs, others, used_area, members = reef_islands(kept, is_reef, surf, h_all, opts, ping=ping)
         rows = np.flatnonzero(keep) if ground.kept is None else np.flatnonzero(keep)[ground.kept]
         files = cloud.meta.get("files") or [cloud.source or "(array)"]
         reefs = [replace(r, sources=sources(rows[m], cloud.fields, files))
@@ -190,6 +190,61 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
                   "software": f"mbinspect {__version__}"}
     return ReefResult(tuple(reefs), tuple(groups), tuple(others), seabed_info, filters, evaluation,
                       parameters, tuple(warnings), ground.region, surf, {"reef_area_used": used_area}, ref_xy)
+
+
+#: Reef points farther apart than this (m) are measured apart, each group on the soundings
+#: around it: no stage links soundings that far (the single-reef area looks 20 m around, the
+#: footprint spacing and statistical filter 10 m), and a raster then spans each group, not
+#: the survey (strips kilometres apart made one raster of their whole extent).
+ISLAND_GAP = 50.0
+#: Side (m) of the plan cells the groups are found in; a group's soundings are those in its
+#: reef points' cells and the cells around them.
+ISLAND_CELL = 10.0
+
+
+def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
+                 options: ReefOptions, ping: np.ndarray | None = None
+                 ) -> tuple[list[Reef], list[dict[str, Any]], float, list[np.ndarray]]:
+    """:func:`single_reefs` on each group of reef points at least :data:`ISLAND_GAP` m from
+    the others, so that time and memory follow the reef points, not their extent.
+
+    Takes and returns what :func:`single_reefs` does; the single-reef area is the median of
+    the groups'. One group: :func:`single_reefs` itself.
+    """
+    rows = np.flatnonzero(is_reef)
+    ci, cj = cell_index(points[rows], 0.0, 0.0, ISLAND_CELL)
+    cells, inverse = np.unique(np.column_stack([ci, cj]), axis=0, return_inverse=True)
+    n, group = cell_groups(cells, int(math.ceil(ISLAND_GAP / ISLAND_CELL)) + 1)
+    if n <= 1:
+        return single_reefs(points, is_reef, seabed, height, options, ping=ping)
+    # each sounding's cell, as one sortable key, and the soundings of a group's cells and
+    # the cells around them (more than the raster's pad around any reef point)
+    ai, aj = cell_index(points, 0.0, 0.0, ISLAND_CELL)
+    lo_i, lo_j = int(ai.min()) - 1, int(aj.min()) - 1
+    width = int(ai.max()) - lo_i + 2
+    key = (aj - lo_j).astype(np.int64) * width + (ai - lo_i)
+    order = np.argsort(key, kind="stable")
+    skey = key[order]
+    reefs: list[Reef] = []
+    others: list[dict[str, Any]] = []
+    areas: list[float] = []
+    members: list[np.ndarray] = []
+    group_of_row = group[inverse.ravel()]
+    for g in range(n):
+        own = cells[group == g]
+        near = np.unique(np.concatenate([(own[:, 1:] + dj - lo_j) * width + (own[:, :1] + di - lo_i)
+                                         for di in (-1, 0, 1) for dj in (-1, 0, 1)]).ravel())
+        a, b = np.searchsorted(skey, near), np.searchsorted(skey, near, side="right")
+        sub = np.sort(np.concatenate([order[x:y] for x, y in zip(a, b, strict=True)]))
+        flag = np.zeros(len(sub), dtype=bool)
+        flag[np.searchsorted(sub, rows[group_of_row == g])] = True
+        r, o, area, m = single_reefs(points[sub], flag, seabed, height[sub], options,
+                                     ping=None if ping is None else ping[sub])
+        reefs += r
+        others += o
+        areas.append(area)
+        members += [sub[x] for x in m]
+    return reefs, others, float(np.nanmedian(areas)) if np.isfinite(areas).any() else math.nan, members
 
 
 def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
