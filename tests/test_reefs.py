@@ -356,6 +356,26 @@ def test_rocks_of_reef_size_are_not_reefs():
     assert sum("design only at" in o["reason"] for o in res.others) >= 3
 
 
+def test_a_candidate_lower_than_min_height_is_a_bump_not_a_reef(reef_small):
+    """Reef points stand `min_height` above the local seabed; a candidate whose top stands
+    less above the seabed around it (a sand-wave crest's bump where the grid dips) is
+    listed with the reason. On the 2 m sand waves and the strips 5 cm apart this took the
+    last false reef of three seeds each (study_reefs.py)."""
+    from dataclasses import replace
+
+    from mbinspect.reefs import ReefOptions
+    from mbinspect.reefs.run import _not_a_reef
+
+    reef = extract_reefs(reef_small.cloud, seed=0).reefs[0]
+    assert reef.height > 1.0
+    cells = np.zeros(0, dtype=np.int64)
+    assert _not_a_reef(reef, cells, None, None, None, ReefOptions()) is None
+    why = _not_a_reef(replace(reef, height=0.22), cells, None, None, None, ReefOptions())
+    assert why is not None and why.startswith("0.22 m above the seabed around it (`min_height` 0.3 m)")
+    lower = ReefOptions(min_height=0.2, foot_height=0.1)
+    assert _not_a_reef(replace(reef, height=0.22), cells, None, None, None, lower) is None
+
+
 def test_a_dome_is_rounded_and_a_flat_top_is_not():
     from mbinspect.reefs.run import rounded_shape
 

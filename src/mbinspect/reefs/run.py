@@ -193,8 +193,9 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
 
 
 #: Reef points farther apart than this (m) are measured apart, each group on the soundings
-#: around it: no stage links soundings that far (the single-reef area looks 20 m around, the
-#: footprint spacing and statistical filter 10 m), and a raster then spans each group, not
+#: around it: no stage links soundings that far (the single-reef area looks
+#: :data:`~mbinspect.reefs.split.AREA_RADIUS` m around, the footprint spacing and the
+#: statistical filter 10 m), and a raster then spans each group, not
 #: the survey (strips kilometres apart made one raster of their whole extent).
 ISLAND_GAP = 50.0
 #: Side (m) of the plan cells the groups are found in; a group's soundings are those in its
@@ -349,8 +350,12 @@ def _other(reef: Reef, reason: str) -> dict[str, Any]:
 
 def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Raster, is_reef: np.ndarray, ping: np.ndarray | None,
                 options: ReefOptions) -> str | None:
-    """Why a measured footprint is not a reef, or None: a ridge, far lower than the design
-    fitted to it, or seen by too few pings."""
+    """Why a measured footprint is not a reef, or None: lower above the seabed around it than
+    a reef point must stand, a ridge, far lower than the design fitted to it, or seen by too
+    few pings."""
+    if reef.height < options.min_height:
+        return (f"{reef.height:.2f} m above the seabed around it (`min_height` {options.min_height:g} m): "
+                "a bump of the seabed, not a reef")
     elongation = reef.length / max(reef.width, 1e-9)
     if options.max_elongation and elongation > options.max_elongation:
         return (f"elongated ({reef.length:.1f} × {reef.width:.1f} m, {elongation:.1f} times longer than "

@@ -21,7 +21,7 @@ LEARN_PARTS = 5
 
 #: Single-reef areas are learnt from the parts within this many metres (a tiled survey reads
 #: at least this far beyond each tile).
-AREA_RADIUS = 20.0
+AREA_RADIUS = 22.0
 
 
 def local_reef_area(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: float, overall: float,
