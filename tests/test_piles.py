@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -209,7 +210,9 @@ def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
     assert {"id", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "method", "n_top", "n_side",
             "side_coverage_deg", "rms", "sigma_xy", "line_sigma_xy", "flags"} <= set(d["piles"][0])
     page = (out / "report.html").read_text()
-    assert "data:image/png;base64," in page and "http" not in page.replace("http-equiv", "")
+    # self-contained: images inline, nothing fetched (base64 data may spell "http" by chance)
+    assert "data:image/png;base64," in page
+    assert not re.search(r"""(?:src|href|url)\s*[=(]\s*["']?(?:https?:)?//""", page)
     # --method both: both methods' piles in the JSON, the CSV and the report
     assert [p["method"] for p in d["other_piles"]] == ["centre"] * 4
     assert {p["method"] for p in d["piles"]} == {"intersection"}
@@ -266,7 +269,8 @@ def test_wharf_jackets_found_without_hints_with_battered_piles(wharf):
     assert len(result.piles) == 12 and not result.warnings
     for p in result.piles:
         t = min(truth.values(), key=lambda q: math.hypot(q["x"] - p.x, q["y"] - p.y))
-        assert math.hypot(t["x"] - p.x, t["y"] - p.y) < 0.02
+        # the issue's goal (3 cm) and within the pile's own 3 sigma (0.5-2.5 cm here)
+        assert math.hypot(t["x"] - p.x, t["y"] - p.y) < min(0.03, 3 * p.sigma_xy)
         assert abs(p.tilt_deg - t["tilt_deg"]) < 0.5  # up to 14 deg (1:4), 0.43 on this scene
         assert p.group == t["group"]  # jackets numbered west to east, as the simulator's
     assert len(result.spacings) == 18 and {s.group for s in result.spacings} == {1, 2, 3}
@@ -408,15 +412,15 @@ def test_a_design_drawn_in_a_local_frame_is_matched_jacket_by_jacket(wharf):
 
 
 def test_a_quay_wall_is_not_a_pile(capsys, tmp_path):
-    """The real Ostend strip ending on a 6 m quay wall: the wall's candidate (its top fitted
-    12 m below the seabed, a 0.31 m radius against the 0.75 m prior) is rejected, named."""
+    """The real Ostend strip ending on a 6 m quay wall: the wall's candidate (a 0.31 m
+    radius against the 0.75 m prior; its top points' plane leans like the wall, so the top
+    is taken square to the axis) is rejected, named."""
     from pathlib import Path
 
     from mbinspect.io import read
 
     path = Path(__file__).parent / "data" / "ets_kmall_OS01_-6133896825737735245.kmall"
-    with pytest.raises(DataError, match=r"is not a pile \(top 1\d\.\d m below the seabed around it, "
-                                        r"radius 0\.\d\d m against the prior 0\.75 m\)"):
+    with pytest.raises(DataError, match=r"is not a pile \(radius 0\.\d\d m against the prior 0\.75 m\)"):
         locate_piles(read(path), radius=0.75)
     assert main(["piles", str(path), "--radius", "0.75", "--out", str(tmp_path / "p")]) == 2
     assert "is not a pile" in capsys.readouterr().err
@@ -436,27 +440,37 @@ def test_rejection_reasons_for_what_cannot_stand():
     assert rejection_reasons(replace(upright, radius_fitted=1.5), 5.0, opts) == [
         "radius 1.50 m against the prior 0.75 m"]
     assert rejection_reasons(upright, -0.2, opts) == ["top 0.2 m below the seabed around it"]
+    # a raised patch seen from above on a narrow real strip (OS01): no side, 17 % of a top
+    patch = replace(upright, method="centre", n_side=0, n_top=55, top_coverage=0.17, tilt_deg=None,
+                    radius_fitted=None)
+    assert rejection_reasons(patch, 1.2, opts) == [
+        "not measurable: 0 side points and only 17 % of a top: nothing shows a pile"]
+    assert rejection_reasons(replace(patch, top_coverage=0.9), 1.2, opts) == []  # a top seen whole
 
 
 def test_sigma_covers_errors_each_line_shares():
     """A sound-speed error drawn per line (0.15 deg at the outer beam) shifts every sounding of
     a line alike, which averaging cannot remove: the model sigma alone leaves spacing errors
     of 4-6 sigma; with the lines' disagreement added (the line jackknife) every error lies
-    within 2 sigma, and each pile says how much of its sigma the lines add."""
+    within 2 sigma, and each pile says how much of its sigma the lines add. Without the line
+    field the jackknife runs over blocks of successive pings and still covers the errors."""
     from mbinspect.io import PointCloud
 
-    within, without = [], []
+    within, by_pings, model_only = [], [], []
     for seed in (0, 2):
         sim = simulate("jacket", seed=seed, ping_spacing=0.2, refraction_sigma_deg=0.15)
         tsp = {(s["a"], s["b"]): s["distance"] for s in sim.truth["spacings"]}
         res = locate_piles(sim.cloud, count=4, radius=0.75, seed=seed)
-        assert all(0 < p.line_sigma_xy <= p.sigma_xy for p in res.piles)
+        assert all(0 < p.line_sigma_xy <= p.sigma_xy and p.jackknife == "lines" for p in res.piles)
         within += [abs(s.distance - tsp[s.a, s.b]) / s.sigma for s in res.spacings]
+        model = {p.id: math.sqrt(p.sigma_xy**2 - p.line_sigma_xy**2) for p in res.piles}
+        model_only += [abs(s.distance - tsp[s.a, s.b]) / math.hypot(model[s.a], model[s.b])
+                       for s in res.spacings]
         no_lines = {k: v for k, v in sim.cloud.fields.items() if k != "line"}
         plain = locate_piles(PointCloud(sim.cloud.xyz, no_lines), count=4, radius=0.75, seed=seed)
-        assert all(math.isnan(p.line_sigma_xy) for p in plain.piles)
-        without += [abs(s.distance - tsp[s.a, s.b]) / s.sigma for s in plain.spacings]
-    assert max(within) <= 2.0 and max(without) > 4.0
+        assert all(p.jackknife == "ping blocks" and p.line_sigma_xy > 0 for p in plain.piles)
+        by_pings += [abs(s.distance - tsp[s.a, s.b]) / s.sigma for s in plain.spacings]
+    assert max(within) <= 2.0 and max(by_pings) <= 2.5 and max(model_only) > 4.0
 
 
 def test_a_pile_that_cannot_be_measured_never_stops_the_others():
@@ -477,3 +491,81 @@ def test_a_pile_that_cannot_be_measured_never_stops_the_others():
         t = min(truth.values(), key=lambda q: math.hypot(q["x"] - p.x, q["y"] - p.y))
         assert t["id"] != 1 and math.hypot(t["x"] - p.x, t["y"] - p.y) < 0.03
     assert any(w.startswith("candidate near") for w in res.warnings)
+
+
+def test_backscatter_segments_only_where_it_separates_steel_from_seabed(jacket_small):
+    """Real backscatter on piles injected into the EM3000 line is the seabed's at each beam's
+    angle: a plain Otsu split of it would still find a 'threshold' and strip a third or more
+    of a pile's soundings (the issue's emptied tops). Normalised by beam angle against the
+    seabed around each pile it separates nothing, so the segmentation is geometry alone.
+    On the simulator, steel returns 20 dB over sand and every pile gets its threshold."""
+    from pathlib import Path
+
+    from mbinspect.inject import InjectedPile, inject
+    from mbinspect.io import PointCloud, read
+    from mbinspect.segment import otsu_threshold
+
+    cloud = read(Path(__file__).parent / "data" / "pdal_mbf_em300raw.mb56")
+    cx, cy = np.median(cloud.xyz[:, :2], axis=0)
+    turn = math.radians(35.0)
+    piles = [InjectedPile(i + 1, cx + 2.2 * (math.cos(turn) * u - math.sin(turn) * v),
+                          cy + 2.2 * (math.sin(turn) * u + math.cos(turn) * v), 0.5, height=2.0)
+             for i, (u, v) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)])]
+    inj = inject(cloud.xyz, cloud.fields, piles=piles)
+    raw = np.asarray(cloud.fields["intensity"], float)
+    stripped = []
+    for p in inj.truth["piles"]:
+        on = inj.ident == p["id"]
+        ring = ~on & (np.hypot(*(inj.xyz[:, :2] - [p["x"], p["y"]]).T) < 5.0)
+        if on.sum() < 50:
+            continue
+        thr = otsu_threshold(np.r_[raw[on], raw[ring]])
+        if np.median(raw[on]) > thr > np.median(raw[ring]):  # the split a plain rule accepts
+            stripped.append(np.mean(raw[on] < thr))
+    assert stripped and max(stripped) > 0.3
+    injected = PointCloud(inj.xyz, dict(cloud.fields))
+    res = locate_piles(injected, count=4, radius=0.5, seed=0)
+    plain = locate_piles(injected, count=4, radius=0.5, seed=0, use_intensity=False)
+    assert all(v is None for v in res.segmentation["intensity_threshold"].values())
+    assert res.segmentation["piles"] == plain.segmentation["piles"]
+    assert [(p.x, p.y) for p in res.piles] == [(p.x, p.y) for p in plain.piles]
+
+    sim = locate_piles(jacket_small.cloud, count=4, radius=0.75)
+    assert all(v is not None for v in sim.segmentation["intensity_threshold"].values())
+
+
+@pytest.mark.parametrize("offsets", [
+    [(3.3, 1.19), (-0.91, 0.88), (-0.6, -3.33), (3.61, -3.02)],
+    [(-1.52, -1.99), (2.1, 0.17), (-0.06, 3.8), (-3.68, 1.63)],
+    [(-2.68, 0.19), (1.27, -1.29), (2.75, 2.67), (-1.2, 4.14)]])
+def test_piles_on_one_real_line_are_placed_and_their_sigma_covers_the_error(offsets):
+    """Piles injected into the real EM3000 line (one line from one side, its own noise): a
+    pile sounded mostly on its side (its densest 0.1 m band a band of the side, its few top
+    soundings along one ping) keeps its top below its highest sounding and its centre on its axis (it was
+    60 cm off at 21 m above its top, with a 5 mm sigma); every spacing lies within 3 sigma,
+    the sigma widened by the jackknife over blocks of pings, as the one line cannot show
+    what its soundings share."""
+    from pathlib import Path
+
+    from mbinspect.inject import InjectedPile, inject
+    from mbinspect.io import PointCloud, read
+
+    cloud = read(Path(__file__).parent / "data" / "pdal_mbf_em300raw.mb56")
+    cx, cy = np.median(cloud.xyz[:, :2], axis=0)
+    inj = inject(cloud.xyz, cloud.fields, piles=[InjectedPile(i + 1, cx + dx, cy + dy, 0.5, height=2.0)
+                                                  for i, (dx, dy) in enumerate(offsets)])
+    truth = {p["id"]: p for p in inj.truth["piles"]}
+    res = locate_piles(PointCloud(inj.xyz, dict(cloud.fields)), count=4, radius=0.5, seed=0)
+    assert len(res.piles) >= 2
+    near = {}
+    for p in res.piles:
+        t = min(truth.values(), key=lambda q: math.hypot(q["x"] - p.x, q["y"] - p.y))
+        near[p.id] = t
+        # a top held by a few soundings is flagged (its top may not have been sounded at all),
+        # but never placed above the pile's soundings
+        assert p.jackknife == "ping blocks" and p.z < res.segments[p.id].points[:, 2].max() + 0.1
+        assert abs(p.z - t["z"]) < 0.1 or (p.n_top < 20 and p.flags)
+        assert math.hypot(p.x - t["x"], p.y - t["y"]) < max(0.1, 3 * p.sigma_xy)
+    for s in res.spacings:
+        a, b = near[s.a], near[s.b]
+        assert abs(s.distance - math.hypot(a["x"] - b["x"], a["y"] - b["y"])) <= 3 * s.sigma

@@ -24,7 +24,7 @@ from scipy.spatial import cKDTree
 from .checks import check_points, integer
 from .errors import InputError
 
-__all__ = ["ANGLE_BINS", "NoiseProfile", "noise_profile", "seabed_residuals"]
+__all__ = ["ANGLE_BINS", "NoiseProfile", "backscatter_anomaly", "noise_profile", "seabed_residuals"]
 
 #: Beam-angle bins (degrees from vertical, either side) of the profile.
 ANGLE_BINS = (0.0, 20.0, 40.0, 55.0, 65.0, 90.0)
@@ -187,6 +187,65 @@ class NoiseProfile:
 
 def _robust_sigma(r: np.ndarray) -> float:
     return float(_MAD * np.median(np.abs(r - np.median(r)))) if len(r) else float("nan")
+
+
+def backscatter_anomaly(intensity: np.ndarray, beam_angle: np.ndarray, reference: np.ndarray, *,
+                        line: np.ndarray | None = None, bin_deg: float = 5.0, min_count: int = 5
+                        ) -> np.ndarray | None:
+    """Backscatter normalised by beam angle: each sounding's intensity minus what the
+    ``reference`` soundings (a seabed) return at its angle, and on its line.
+
+    Raw backscatter falls with the angle from nadir and its level changes from line to line
+    (uncalibrated gains), so a threshold on it separates beam angles and lines as much as
+    materials. The angular response is the median of the reference in ``bin_deg`` bins of
+    the absolute angle (bins with fewer than ``min_count`` soundings interpolated from
+    their neighbours); a line with at least ``min_count`` reference soundings then has its
+    own median offset removed.
+
+    Parameters
+    ----------
+    intensity, beam_angle : ndarray, shape (N,)
+        Backscatter (any dB-like unit) and beam angle (deg).
+    reference : ndarray of bool, shape (N,)
+        The soundings whose response is the zero.
+    line : ndarray, shape (N,), optional
+        Survey line of each sounding.
+
+    Returns
+    -------
+    ndarray, shape (N,), or None
+        None when the reference holds fewer than ``min_count`` finite soundings.
+
+    Examples
+    --------
+    >>> ang = np.tile(np.arange(-60.0, 61.0, 2.0), 20)
+    >>> bs = -20 - 0.2 * np.abs(ang)  # a seabed darkening off nadir
+    >>> bright = np.arange(len(ang)) % 10 == 0
+    >>> anom = backscatter_anomaly(np.where(bright, bs + 12, bs), ang, ~bright)
+    >>> round(float(np.median(anom[bright])), 1), bool(abs(np.median(anom[~bright])) < 0.2)
+    (11.9, True)
+    """
+    inten = np.asarray(intensity, float)
+    a = np.abs(np.asarray(beam_angle, float))
+    ref = np.asarray(reference, bool) & np.isfinite(inten) & np.isfinite(a)
+    if ref.sum() < min_count:
+        return None
+    b = np.floor(a / bin_deg).astype(np.int64)
+    bins, inv, counts = np.unique(b[ref], return_inverse=True, return_counts=True)
+    med = np.array([np.median(inten[ref][inv == i]) for i in range(len(bins))])
+    ok = counts >= min_count
+    if not ok.any():
+        curve = np.full(len(a), np.median(inten[ref]))
+    else:
+        curve = np.interp(a, (bins[ok] + 0.5) * bin_deg, med[ok])
+    out = inten - curve
+    if line is not None:
+        ln = np.asarray(line)
+        for v in np.unique(ln[ref]):
+            own = ref & (ln == v)
+            if own.sum() >= min_count:
+                out[ln == v] -= np.median(out[own])
+    return out
 
 
 def _pair_correlation(r: np.ndarray, key_a: np.ndarray, key_b: np.ndarray) -> float | None:

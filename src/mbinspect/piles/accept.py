@@ -1,7 +1,7 @@
 """Stage 6b: only piles are piles. A measured candidate that cannot be a standing pile
 (its top not above the seabed, leaning past ``max_tilt_deg``, or a radius far from the
-prior), or that could only be given a centre from a handful of top points, is taken out
-of the answer and listed with the reasons."""
+prior), or that could only be given a centre from a handful of top points or from a small
+part of a top with no side, is taken out of the answer and listed with the reasons."""
 
 from __future__ import annotations
 
@@ -12,10 +12,15 @@ import numpy as np
 from .options import PileOptions
 from .results import PileFit
 
-__all__ = ["RADIUS_RATIO", "rejected_record", "rejection_reasons"]
+__all__ = ["MIN_SIDE", "MIN_TOP_SHARE", "RADIUS_RATIO", "rejected_record", "rejection_reasons"]
 
 #: A fitted radius outside ``prior / RADIUS_RATIO`` to ``prior * RADIUS_RATIO`` is not this pile.
 RADIUS_RATIO = 1.6
+
+#: A candidate with fewer side points than MIN_SIDE (no side to fit) and less than
+#: MIN_TOP_SHARE of a top disc covered cannot be told from any other raised object.
+MIN_SIDE = 6
+MIN_TOP_SHARE = 0.5
 
 
 def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) -> list[str]:
@@ -45,6 +50,10 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
     if pile.method == "centre" and pile.n_top < options.min_top:
         reasons.append(f"not measurable: a centre from only {pile.n_top} top points (`min_top` "
                        f"{options.min_top}) and {pile.n_side} side points")
+    elif (pile.n_side < MIN_SIDE and pile.top_coverage is not None
+          and pile.top_coverage < MIN_TOP_SHARE):
+        reasons.append(f"not measurable: {pile.n_side} side points and only "
+                       f"{100 * pile.top_coverage:.0f} % of a top: nothing shows a pile")
     if not top_height > 0:
         reasons.append(f"top {-top_height:.1f} m below the seabed around it")
     if pile.tilt_deg is not None and pile.tilt_deg > options.max_tilt_deg:

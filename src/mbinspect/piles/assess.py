@@ -59,7 +59,8 @@ def assess_pile(pid: int, m: PileMeasure, options: PileOptions) -> PileFit:
         tilt_deg=m.tilt_deg, tilt_azimuth_deg=m.tilt_azimuth_deg, method=m.method, n_top=m.n_top,
         n_side=m.n_side, side_coverage_deg=m.coverage, rms=m.rms, sigma_xy=m.sigma_xy,
         flags=tuple(flags), radius_fitted=m.radius_fitted, top_coverage=m.top_coverage,
-        alternatives=m.alternatives, line_sigma_xy=m.line_sigma_xy)
+        alternatives=m.alternatives, line_sigma_xy=m.line_sigma_xy,
+        jackknife=m.jackknife)
 
 
 def other_method_piles(piles: tuple[PileFit, ...], radius: float

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["centre_method", "top_coverage", "centre_summary"]
+__all__ = ["centre_method", "top_coverage", "centre_summary", "segment_bias"]
 
 
 def centre_method(top: np.ndarray, *, radius: float, ks: float = 0.1, start: np.ndarray | None = None,
@@ -111,10 +111,50 @@ def top_coverage(top: np.ndarray, centre: np.ndarray, radius: float, cell: float
     return float((hit & disc).sum() / disc.sum())
 
 
+def segment_bias(top: np.ndarray, radius: float) -> float:
+    """How far the mean of a partly seen top can lie from its centre (m): the offset of a
+    circular segment of the disc with the area of the top points' convex hull.
+
+    A top seen on one side only (one line along its edge) is a segment of the disc whose
+    mean lies toward the seen side; scattered gaps between soundings leave the hull whole
+    and add nothing (the disc is taken one sounding spacing narrower, as far as soundings
+    reach). Used as a 1-sigma term of the centre method's covariance.
+
+    Examples
+    --------
+    >>> a = np.linspace(0, 2 * np.pi, 400)
+    >>> r = np.sqrt(np.linspace(0, 1, 400)) * 0.75
+    >>> disc = np.column_stack([r * np.cos(a * 37), r * np.sin(a * 37)])
+    >>> round(segment_bias(disc, 0.75), 3), round(segment_bias(disc[disc[:, 0] > 0], 0.75), 2)
+    (0.0, 0.28)
+    """
+    from scipy.spatial import ConvexHull, QhullError, cKDTree
+
+    xy = np.asarray(top, np.float64)[:, :2]
+    try:
+        area = ConvexHull(xy).volume if len(xy) >= 3 else 0.0
+    except QhullError:  # collinear: a line across the top
+        area = 0.0
+    # soundings reach to within about their own spacing of the rim: a whole top seen by
+    # soundings s apart has a hull of (r - s)^2 / r^2 of the disc
+    spacing = float(np.median(cKDTree(xy).query(xy, k=2)[0][:, 1])) if len(xy) >= 2 else radius
+    share = min(area / (math.pi * max(radius - spacing, 0.5 * radius) ** 2), 1.0)
+    if share >= 1.0:
+        return 0.0
+    # a segment of half-angle t holds the share (t - sin t cos t) / pi of the disc, and its
+    # centroid lies (2/3) r sin^3 t / (t - sin t cos t) from the centre
+    t = np.linspace(1e-3, math.pi, 2000)
+    held = (t - np.sin(t) * np.cos(t)) / math.pi
+    half = float(np.interp(max(share, held[0]), held, t))
+    return float(2 / 3 * radius * math.sin(half) ** 3 / (half - math.sin(half) * math.cos(half)))
+
+
 def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarray | None,
                    groups: np.ndarray | None) -> dict[str, Any]:
     """The centre method's answer as a summary: ``x, y, z`` (m), ``sigma_xy`` (m, plan
-    1-sigma), ``cov`` (2 x 2, m²) and ``top_coverage`` (share of the disc seen).
+    1-sigma), ``cov`` (2 x 2, m²; the soundings' scatter and :func:`segment_bias` as a
+    1-sigma in each direction), ``top_coverage`` (share of the disc seen) and
+    ``segment_bias`` (m).
 
     Parameters are those of :func:`centre_method`.
 
@@ -134,6 +174,8 @@ def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarr
     dict
     """
     c, used, cov = centre_method(top, radius=radius, ks=ks, start=start, groups=groups)
+    bias = segment_bias(top[used], radius)
+    cov = cov + bias**2 * np.eye(2)
     return {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),
             "sigma_xy": math.sqrt(max(float(np.trace(cov)) / 2, 0.0)), "cov": cov,
-            "top_coverage": top_coverage(top[used], c, radius)}
+            "top_coverage": top_coverage(top[used], c, radius), "segment_bias": bias}

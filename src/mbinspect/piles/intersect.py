@@ -45,12 +45,18 @@ def side_coverage(cyl: Cylinder, pts: np.ndarray, bin_deg: float = 5.0) -> float
     return float((hist > 0).sum() * bin_deg)
 
 
+#: Degrees beyond ``max_tilt_deg`` that a top plane may lean (a top is level or square to
+#: its pile) before :func:`intersection_method` takes it square to the axis instead.
+TOP_LEAN_MARGIN_DEG = 5.0
+
+
 def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndarray, *,
                         radius: float, threshold: float = 0.06, max_tilt_deg: float = 15.0,
                         seed: int = 0, groups: np.ndarray | None = None,
                         start: Cylinder | None = None, radius_mode: str = "auto",
                         min_free_coverage_deg: float = 150.0, max_free_sigma: float = 0.005,
-                        ) -> tuple[Cylinder, Plane, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                        ) -> tuple[Cylinder, Plane, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                   list[str]]:
     """The paper's intersection method, made robust and unbiased.
 
     A cylinder by MSAC on the side points (two points with their normals propose an axis
@@ -64,6 +70,11 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     the prior by more than 3 sigma and 5 mm (the data reject the prior); else the prior
     is kept, which is more precise. A wrong fixed radius shifts the centre toward the
     scanned side.
+
+    A top plane that leans more than :data:`TOP_LEAN_MARGIN_DEG` beyond ``max_tilt_deg``
+    cannot be a pile's top (a few top soundings along one ping let a plane turn about
+    their line, and the axis then meets it metres away): the top is taken square to the
+    axis through the top points' median instead, and a note says so.
 
     Parameters
     ----------
@@ -91,8 +102,9 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
 
     Returns
     -------
-    cylinder, plane, centre (3,), side_inliers, top_inliers, cov (4, 4)
-        ``cov`` is the cluster-robust covariance of (x, y, ax, ay) at the top.
+    cylinder, plane, centre (3,), side_inliers, top_inliers, cov (4, 4), notes
+        ``cov`` is the cluster-robust covariance of (x, y, ax, ay) at the top; ``notes``
+        what was done where the data did not allow the plain method (list of str).
 
     Raises
     ------
@@ -125,6 +137,8 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     if pres.model is None:
         raise DataError("intersection method: no plane fits the top points")
     plane = pres.model
+    lean = math.degrees(math.acos(min(1.0, abs(float(plane.normal[2])))))
+    level = lean <= max_tilt_deg + TOP_LEAN_MARGIN_DEG
     if start is None:
         res = cylinder_msac(ls, side_normals, radius=radius, threshold=threshold,
                             max_tilt_deg=max_tilt_deg, seed=seed, free_radius=radius_mode != "fixed")
@@ -135,7 +149,7 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     else:
         cyl0 = Cylinder(start.point - shift, start.axis, start.radius)
         inl = np.abs(cyl0.residuals(ls)) <= threshold
-    z_top = float(np.median(lt[pres.inliers, 2]))
+    z_top = float(np.median(lt[pres.inliers, 2] if level else lt[:, 2]))
     g = None if groups is None else np.asarray(groups)
 
     def refit(model: Cylinder, r: float | None) -> tuple[Cylinder, np.ndarray, np.ndarray]:
@@ -150,13 +164,17 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
         if (side_coverage(cyl, ls[inl]) < min_free_coverage_deg or not r_sigma <= max_free_sigma
                 or not rejected):
             cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
+    notes = []
+    if not level:
+        plane = Plane(np.median(lt, axis=0), cyl.axis if cyl.axis[2] >= 0 else -cyl.axis)
+        notes.append(f"the top points' plane leans {lean:.0f} deg: top taken square to the axis")
     centre = cyl.intersect(plane)
     if centre is None:
         raise DataError("intersection method: the axis is parallel to the top plane")
     out_cyl = Cylinder(cyl.point + shift, cyl.axis, cyl.radius)
     out_plane = Plane(plane.point + shift, plane.normal)
     top_in = np.abs(plane.residuals(lt)) <= threshold / 2
-    return out_cyl, out_plane, centre + shift, inl, top_in, cov
+    return out_cyl, out_plane, centre + shift, inl, top_in, cov, notes
 
 
 def refit_cylinder(ls: np.ndarray, model: Cylinder, r: float | None, *, threshold: float, z_top: float,

@@ -6,6 +6,12 @@ one survey line (its height offset, its sound-speed "smile", a roll bias) do not
 out: a pile seen by five lines carries five such errors. When a pile's soundings come from
 at least three lines, it is measured again without each line in turn, and the spread of
 those centres (the delete-one jackknife) is added to its covariance.
+
+A pile seen by one or two lines (a native sonar file is one line) is measured again
+without each of :data:`PING_BLOCKS` blocks of successive pings instead: errors shared by
+neighbouring pings (a roll or heave that lasts, a refraction that drifts) and a narrow
+scanned arc that leaves the centre loosely held both show in the blocks' disagreement,
+where the model covariance, which takes pings as independent, would be too small.
 """
 
 from __future__ import annotations
@@ -20,20 +26,56 @@ from .measure import measure_pile
 from .options import PileOptions
 from .results import PileMeasure, PileSegment
 
-__all__ = ["line_jackknife", "MIN_LINES"]
+__all__ = ["line_jackknife", "MIN_LINES", "PING_BLOCKS"]
 
-#: Fewest lines whose soundings a pile must hold for the jackknife.
+#: Fewest lines whose soundings a pile must hold for the jackknife over lines (and fewest
+#: blocks or lines left measurable for either jackknife).
 MIN_LINES = 3
+
+#: Blocks of successive pings of the jackknife of a pile seen by fewer than MIN_LINES lines.
+PING_BLOCKS = 5
+
+
+def jackknife_units(seg: PileSegment, used: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """Each point's jackknife unit: its line when the used points span :data:`MIN_LINES`
+    lines, else its block of successive pings (lines first, then ping numbers, in
+    :data:`PING_BLOCKS` blocks of as many pings); (None, "") when neither is known.
+
+    Examples
+    --------
+    >>> seg = PileSegment(np.zeros((10, 3)), np.ones(10, bool), np.zeros(10, bool),
+    ...                   ping=np.arange(10) // 2)
+    >>> units, kind = jackknife_units(seg, np.ones(10, bool))
+    >>> units.tolist(), kind
+    ([0, 0, 1, 1, 2, 2, 3, 3, 4, 4], 'ping blocks')
+    """
+    if seg.line is not None and len(np.unique(seg.line[used])) >= MIN_LINES:
+        return np.asarray(seg.line), "lines"
+    if seg.ping is None:
+        return None, ""
+    line = np.zeros(len(seg.ping), np.int64) if seg.line is None else np.asarray(seg.line)
+    keys = np.unique(np.column_stack([line, seg.ping])[used], axis=0)  # sorted: line, then ping
+    if len(keys) < MIN_LINES:
+        return None, ""
+    block_of_key = np.arange(len(keys)) * min(PING_BLOCKS, len(keys)) // len(keys)
+    pos = np.searchsorted(keys[:, 0] * (int(keys[:, 1].max()) + 1) + keys[:, 1],
+                          line * (int(keys[:, 1].max()) + 1) + seg.ping)
+    units = np.full(len(seg.ping), -1, np.int64)
+    ok = pos < len(keys)
+    ok[ok] = (keys[pos[ok], 0] == line[ok]) & (keys[pos[ok], 1] == seg.ping[ok])
+    units[ok] = block_of_key[pos[ok]]
+    return units, "ping blocks"
 
 
 def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, normals: np.ndarray,
                    fit: PileMeasure, options: PileOptions, seed: int) -> PileMeasure:
-    """``fit`` with the covariance of its centre widened by the line-wise jackknife.
+    """``fit`` with the covariance of its centre widened by the jackknife over lines (or over
+    blocks of successive pings, :func:`jackknife_units`).
 
     Parameters
     ----------
     seg : PileSegment
-        With ``line`` per point (otherwise ``fit`` is returned as it is).
+        With ``line`` or ``ping`` per point (otherwise ``fit`` is returned as it is).
     top_m, side_m : ndarray of bool
         The points the fit used.
     normals : ndarray, shape (side_m.sum(), 3)
@@ -47,7 +89,8 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
     -------
     PileMeasure
         ``cov`` = model covariance + jackknife covariance of the plan centre, ``sigma_xy``
-        from it; ``line_sigma_xy`` the jackknife part alone (NaN when not computed).
+        from it; ``line_sigma_xy`` the jackknife part alone (NaN when not computed) and
+        ``jackknife`` its units ("lines" or "ping blocks").
 
     Examples
     --------
@@ -58,15 +101,13 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
     >>> all(p.line_sigma_xy > 0 for p in res.piles)
     True
     """
-    if seg.line is None:
-        return fit
     used = top_m | side_m
-    lines = np.unique(seg.line[used])
-    if len(lines) < MIN_LINES:
+    units, kind = jackknife_units(seg, used)
+    if units is None:
         return fit
     centres = []
-    for ln in lines:
-        keep = seg.line != ln
+    for ln in np.unique(units[used]):
+        keep = units != ln
         try:
             m = measure_pile(seg, top_m & keep, side_m & keep, normals[keep[side_m]], options=options,
                              seed=seed, previous=fit)
@@ -80,4 +121,4 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
     jack = (len(c) - 1) / len(c) * (d.T @ d)
     cov = np.asarray(fit.cov)[:2, :2] + jack
     return replace(fit, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)),
-                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)))
+                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)), jackknife=kind)

@@ -95,7 +95,7 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
         found = PileMeasure(centre["x"], centre["y"], centre["z"], "centre", centre["cov"],
                             centre["sigma_xy"], float(np.sqrt(np.mean(dz**2))), int(len(top)),
                             int(len(side)), coverage=0.0, top_coverage=centre["top_coverage"])
-    return PileMeasure(**{**found.__dict__, "flags": tuple(flags),
+    return PileMeasure(**{**found.__dict__, "flags": tuple(flags) + found.flags,
                           "alternatives": alternatives if method == "both" else {}})
 
 
@@ -104,7 +104,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
                      previous: PileMeasure | None) -> PileMeasure:
     """The intersection method's measure of one pile (raises DataError when it cannot)."""
     gside = None if seg.ping is None else seg.ping[side_m]
-    cyl, plane, centre, s_in, t_in, cov = intersection_method(
+    cyl, plane, centre, s_in, t_in, cov, notes = intersection_method(
         side, side_normals, top, radius=options.radius, threshold=options.threshold,
         max_tilt_deg=options.max_tilt_deg, seed=seed, groups=gside,
         start=previous.cylinder if previous is not None else None, radius_mode=options.radius_mode)
@@ -120,7 +120,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
                        sig, float(np.sqrt(np.mean(r_res**2))), int(t_in.sum()), int(s_in.sum()),
                        coverage=side_coverage(cyl, side[s_in]), top_coverage=None,
                        tilt_deg=cyl.tilt_deg, tilt_azimuth_deg=cyl.tilt_bearing_deg, cylinder=cyl,
-                       plane=plane, radius_fitted=r_free, radius_used=cyl.radius)
+                       plane=plane, radius_fitted=r_free, radius_used=cyl.radius, flags=tuple(notes))
 
 
 def prune(seg: PileSegment, fit: PileMeasure, *, radius: float, ks: float, threshold: float

@@ -67,8 +67,11 @@ class PileMeasure:
         With both methods, each method's centre (``x, y, z, sigma_xy`` and, for the
         centre method, ``cov`` and ``top_coverage``).
     line_sigma_xy : float
-        The part of ``sigma_xy`` the lines' disagreement adds (m; NaN: fewer than three
-        lines, or no line per sounding; :func:`~mbinspect.piles.jackknife.line_jackknife`).
+        The part of ``sigma_xy`` the jackknife adds (m; NaN: not computed;
+        :func:`~mbinspect.piles.jackknife.line_jackknife`).
+    jackknife : str
+        Its units: "lines" (the lines' disagreement), "ping blocks" (a pile seen by one or
+        two lines) or "".
     """
 
     x: float
@@ -91,6 +94,7 @@ class PileMeasure:
     flags: tuple[str, ...] = ()
     alternatives: dict[str, dict[str, Any]] = field(default_factory=dict)
     line_sigma_xy: float = math.nan
+    jackknife: str = ""
 
     @property
     def centre(self) -> np.ndarray:
@@ -125,6 +129,7 @@ class PileFit:
     alternatives: dict[str, dict[str, float]] = field(default_factory=dict)
     group: int = 1
     line_sigma_xy: float = math.nan
+    jackknife: str = ""
     sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
 
     def to_dict(self) -> dict[str, Any]:
@@ -134,7 +139,8 @@ class PileFit:
             "tilt_deg": self.tilt_deg, "tilt_azimuth_deg": self.tilt_azimuth_deg,
             "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
             "side_coverage_deg": self.side_coverage_deg, "rms": self.rms,
-            "sigma_xy": self.sigma_xy, "line_sigma_xy": self.line_sigma_xy, "flags": list(self.flags),
+            "sigma_xy": self.sigma_xy, "line_sigma_xy": self.line_sigma_xy,
+            "jackknife": self.jackknife or None, "flags": list(self.flags),
             "radius_fitted": self.radius_fitted, "top_coverage": self.top_coverage,
         }
         if self.alternatives:

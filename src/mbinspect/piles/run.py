@@ -145,9 +145,10 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     if not (labels >= 0).any():
         raise DataError("no pile found among the points above the seabed")
     report(0.3)
-    thr = pile_thresholds(intensity, pts, eidx, labels, np.abs(height) < GROUND_BAND, opts.radius)
+    thr, backscatter = pile_thresholds(intensity, pts, eidx, labels, np.abs(height) < GROUND_BAND,
+                                       opts.radius, beam_angle=cloud.fields.get("beam_angle"), line=line)
     segs, side_n, seg_info = segment_piles(
-        pts[eidx], labels, opts, intensity=None if intensity is None else intensity[eidx],
+        pts[eidx], labels, opts, intensity=backscatter,
         intensity_threshold=thr, ping=None if ping is None else ping[eidx],
         line=None if line is None else line[eidx])
     fits, iterations, unmeasured = iterate(segs, side_n, opts, report)

@@ -14,6 +14,15 @@ from .results import PileSegment
 __all__ = ["split_top_side", "segment_piles"]
 
 
+#: Height (m) above the top band beyond which soundings are not the top's (noise, a tilted
+#: top's rim); with at least :data:`ABOVE_MIN` of them, and :data:`ABOVE_SHARE` of the
+#: window's count, the densest band was a band of the side and the top band is moved to
+#: the pile's highest soundings.
+TOP_CLEARANCE = 0.1
+ABOVE_MIN = 5
+ABOVE_SHARE = 0.1
+
+
 def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
                    step: float = 0.01, normal_k: int = 16, min_planarity: float = 0.3,
                    top_normal_deg: float = 30.0,
@@ -76,6 +85,14 @@ def split_top_side(points: np.ndarray, *, radius: float, window: float = 0.1,
     # a tilted top spans +-r sin(tilt) around the window: accept a band, then trust normals
     band = max(window, 2 * radius * math.sin(math.radians(8.0)))
     mid = (lo + hi) / 2
+    # a pile sounded mostly on its side can hold more points in a band of its side than on
+    # its top: soundings well above the densest band mean that band is not the top
+    above = int((pts[:, 2] > mid + band / 2 + TOP_CLEARANCE).sum())
+    if above >= max(ABOVE_MIN, ABOVE_SHARE * n_win):
+        z_high = float(np.sort(pts[:, 2])[-min(ABOVE_MIN, len(pts))])
+        mid = z_high + TOP_CLEARANCE / 2 - band / 2
+        info["window_on_side"] = {"moved_from": [lo, hi], "soundings_above": above}
+        info["window"] = [mid - band / 2, mid + band / 2]
     top = (np.abs(pts[:, 2] - mid) <= band / 2 + 0.05) & (
         ~defined | (nz >= math.cos(math.radians(top_normal_deg))))
     side = (pts[:, 2] < mid - band / 2 - edge_band) & (

@@ -42,7 +42,7 @@ __all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "tile_options
 BYTES_PER_SOUNDING = 400
 
 #: The fields a pipeline reads besides x, y, z, file and line: all a tile part keeps.
-TILE_FIELDS = {"reefs": ("ping",), "piles": ("ping", "intensity")}
+TILE_FIELDS = {"reefs": ("ping",), "piles": ("ping", "intensity", "beam_angle")}
 
 #: A tile's peak memory on a worker: a fixed part (the interpreter, NumPy, SciPy, the
 #: Dask worker) and bytes per sounding it reads; measured 0.09 GB and 150 B in one
