@@ -11,7 +11,7 @@ import pytest
 from mbinspect.cli import main
 from mbinspect.errors import InputError, ParameterError
 from mbinspect.evaluate import match_points, read_reference
-from mbinspect.reefs import extract_reefs, reef_points, rough_terrain
+from mbinspect.reefs import ReefOptions, extract_reefs, reef_points, rough_terrain
 from mbinspect.seabed import grid_seabed
 from mbinspect.simulate import LABELS, simulate
 
@@ -363,7 +363,6 @@ def test_a_candidate_lower_than_min_height_is_a_bump_not_a_reef(reef_small):
     last false reef of three seeds each (study_reefs.py)."""
     from dataclasses import replace
 
-    from mbinspect.reefs import ReefOptions
     from mbinspect.reefs.run import _not_a_reef
 
     reef = extract_reefs(reef_small.cloud, seed=0).reefs[0]
@@ -384,10 +383,11 @@ def test_a_dome_is_rounded_and_a_flat_top_is_not():
     # a sunk ellipsoid: the top 0.9 of its half-axis shows
     dome = 1.2 * (np.sqrt(1 - (0.9 * r) ** 2) - np.sqrt(0.19)) / (1 - np.sqrt(0.19))
     spread, plateau = rounded_shape(dome + rng.normal(0, 0.03, len(r)))
-    assert spread >= 0.12 and plateau <= 0.42
+    opts = ReefOptions()
+    assert spread >= opts.rounded_spread and plateau <= opts.rounded_plateau
     top = np.r_[np.full(2400, 1.2), rng.uniform(0.15, 1.2, 600)] + rng.normal(0, 0.03, 3000)  # top and walls
     spread, plateau = rounded_shape(top)
-    assert spread < 0.12 and plateau > 0.42
+    assert spread < opts.rounded_spread and plateau > opts.rounded_plateau
 
 
 def test_a_group_of_buried_reefs_is_not_rough_ground():
@@ -402,3 +402,17 @@ def test_a_group_of_buried_reefs_is_not_rough_ground():
     truth = sim.truth["reefs"]
     assert max(abs(res.reefs[i].height - truth[j]["height"]) for i, j, _ in ev.matches) < 0.1
     assert min(t["height"] for t in truth) < 1.5  # some are sunk deep
+
+
+def test_a_sunk_triangle_that_looks_rounded_is_a_reef_when_its_design_fits():
+    """Triangular reefs sunk up to 0.5 m at 25 m: one's sloping faces pass the shape test for
+    a rock when no design is given (the case is real); with the triangle design, which fits
+    it at its size, it is a reef, and so are the other eight."""
+    sim = simulate("reef-field", seed=2, groups="triangle", per_group=9, burial_max=0.5, seabed=-25.0,
+                   close_pairs=0, boulders=0, debris=0)
+    plain = extract_reefs(sim.cloud, reference=_reference(sim), seed=2)
+    assert plain.evaluation is not None and (plain.evaluation.tp, plain.evaluation.fn) == (8, 1)
+    assert sum(o["reason"].startswith("rounded") for o in plain.others) == 1
+    designed = extract_reefs(sim.cloud, reference=_reference(sim), seed=2, design="triangle")
+    assert designed.evaluation is not None and (designed.evaluation.tp, designed.evaluation.fn) == (9, 0)
+    assert all(r.design == "triangle" for r in designed.reefs)

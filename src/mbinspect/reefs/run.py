@@ -315,8 +315,11 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
                              f"smaller than `min_area` {options.min_area:g} m²"))
     kept, kept_members = [], []
     for r, p, m in zip(reefs, parts, _members(points, is_reef, raster, parts), strict=True):
+        # a design that fits at its size (with few edge soundings astray) is a stronger
+        # witness than the shape of a top: a deeply sunk triangle's sloping faces look rounded
+        witness = r.design and abs(r.design_scale - 1) <= DESIGN_WITNESS_SCALE
         why = (_not_a_reef(r, p, raster, is_reef, ping, options)
-               or _rounded(points, r, p, raster, height, options))
+               or (None if witness else _rounded(points, r, p, raster, height, options)))
         if why:
             others.append(_other(r, why))
         else:
@@ -422,9 +425,14 @@ def rounded_shape(height: np.ndarray) -> tuple[float, float]:
     return spread, float(np.mean(h >= (1 - PLATEAU_DEPTH) * top))
 
 
-#: Soundings across a candidate's width below which its shape is not judged: a coarser
-#: grid blurs a flat top's edges into a dome (a 0.5 m export of 3 m crosses looks rounded).
-SHAPE_SOUNDINGS_ACROSS = 8
+#: A design fitted within this share of its size overrides the shape test for rocks (a
+#: looser ``design_scale_tolerance``, for reefs built smaller, does not).
+DESIGN_WITNESS_SCALE = 0.15
+
+#: Soundings across a candidate's thickest part (:func:`thickness`) below which its shape
+#: is not judged: a coarser grid blurs a flat top's edges into a dome (a 0.5 m export of
+#: 3 m crosses with 1 m arms looks rounded).
+SHAPE_SOUNDINGS_ACROSS = 6
 
 
 def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, height: np.ndarray,
@@ -438,7 +446,7 @@ def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, 
         return None
     idx = _cell_soundings(cells, raster)
     own = np.unique(idx)
-    if len(own) < 10 or sounding_spacing(points[own]) > reef.width / SHAPE_SOUNDINGS_ACROSS:
+    if len(own) < 10 or sounding_spacing(points[own]) > thickness(cells, raster) / SHAPE_SOUNDINGS_ACROSS:
         return None
     spread, plateau = rounded_shape(points[idx, 2] - reef.z_seabed)
     if spread >= options.rounded_spread and plateau <= options.rounded_plateau:
@@ -446,6 +454,28 @@ def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, 
                 f"{options.rounded_spread:g}) and {plateau:.0%} lie near its top (`rounded_plateau` "
                 f"{options.rounded_plateau:g}): a rock, not a reef's flat top")
     return None
+
+
+def thickness(cells: np.ndarray, raster: Raster) -> float:
+    """The width (m) of a footprint's thickest part: the diameter of the largest disc its
+    cells hold: about 1.4 arm widths at a cross's crossing, not its span; a rock's own width.
+
+    Examples
+    --------
+    >>> from mbinspect.reefs.footprint import Raster
+    >>> lab = np.zeros((40, 40), int)
+    >>> lab[15:25, :] = lab[:, 15:25] = 1  # a cross of 0.1 m cells, arms 1 m wide, 4 m long
+    >>> r = Raster(0.0, 0.0, 0.1, lab, np.full(lab.shape, -1))
+    >>> round(thickness(np.flatnonzero(lab.ravel() == 1), r), 1)
+    1.4
+    """
+    from scipy.ndimage import distance_transform_edt
+
+    ny, nx = raster.labels.shape
+    iy, ix = np.divmod(np.asarray(cells, np.int64), nx)
+    mask = np.zeros((iy.max() - iy.min() + 3, ix.max() - ix.min() + 3), bool)
+    mask[iy - iy.min() + 1, ix - ix.min() + 1] = True
+    return float(2.0 * distance_transform_edt(mask).max() * raster.cell)
 
 
 def _cell_soundings(cells: np.ndarray, raster: Raster) -> np.ndarray:
