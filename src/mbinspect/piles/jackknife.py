@@ -53,18 +53,15 @@ def jackknife_units(seg: PileSegment, used: np.ndarray) -> tuple[np.ndarray | No
         return np.asarray(seg.line), "lines"
     if seg.ping is None:
         return None, ""
-    line = np.zeros(len(seg.ping), np.int64) if seg.line is None else np.asarray(seg.line)
-    keys = np.unique(np.column_stack([line, seg.ping])[used], axis=0)  # sorted: line, then ping
-    if len(keys) < MIN_LINES:
+    line = np.zeros(len(seg.ping), np.int64) if seg.line is None else np.asarray(seg.line, np.int64)
+    _, key = np.unique(np.column_stack([line, np.asarray(seg.ping, np.int64)]), axis=0, return_inverse=True)
+    key = key.ravel()
+    seen = np.unique(key[used])  # sorted by line, then ping
+    if len(seen) < MIN_LINES:
         return None, ""
-    block_of_key = np.arange(len(keys)) * min(PING_BLOCKS, len(keys)) // len(keys)
-    pos = np.searchsorted(keys[:, 0] * (int(keys[:, 1].max()) + 1) + keys[:, 1],
-                          line * (int(keys[:, 1].max()) + 1) + seg.ping)
-    units = np.full(len(seg.ping), -1, np.int64)
-    ok = pos < len(keys)
-    ok[ok] = (keys[pos[ok], 0] == line[ok]) & (keys[pos[ok], 1] == seg.ping[ok])
-    units[ok] = block_of_key[pos[ok]]
-    return units, "ping blocks"
+    block = np.full(key.max() + 1, -1, np.int64)
+    block[seen] = np.arange(len(seen)) * min(PING_BLOCKS, len(seen)) // len(seen)
+    return block[key], "ping blocks"
 
 
 def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, normals: np.ndarray,
