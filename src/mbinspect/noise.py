@@ -24,7 +24,8 @@ from scipy.spatial import cKDTree
 from .checks import check_points, integer
 from .errors import InputError
 
-__all__ = ["ANGLE_BINS", "NoiseProfile", "backscatter_anomaly", "noise_profile", "seabed_residuals"]
+__all__ = ["ANGLE_BINS", "NoiseProfile", "backscatter_anomaly", "noise_profile", "robust_sigma",
+           "seabed_residuals"]
 
 #: Beam-angle bins (degrees from vertical, either side) of the profile.
 ANGLE_BINS = (0.0, 20.0, 40.0, 55.0, 65.0, 90.0)
@@ -185,7 +186,15 @@ class NoiseProfile:
                 "ping_share": self.ping_share}
 
 
-def _robust_sigma(r: np.ndarray) -> float:
+def robust_sigma(r: np.ndarray) -> float:
+    """1.4826 times the median absolute deviation: the σ of normal data, robust to tails
+    (NaN for no data).
+
+    Examples
+    --------
+    >>> round(robust_sigma(np.r_[np.random.default_rng(0).normal(0, 2.0, 5000), 1e6]), 1)
+    2.0
+    """
     return float(_MAD * np.median(np.abs(r - np.median(r)))) if len(r) else float("nan")
 
 
@@ -232,7 +241,8 @@ def backscatter_anomaly(intensity: np.ndarray, beam_angle: np.ndarray, reference
         return None
     b = np.floor(a / bin_deg).astype(np.int64)
     bins, inv, counts = np.unique(b[ref], return_inverse=True, return_counts=True)
-    med = np.array([np.median(inten[ref][inv == i]) for i in range(len(bins))])
+    seen = inten[ref]
+    med = np.array([np.median(seen[inv == i]) for i in range(len(bins))])
     ok = counts >= min_count
     if not ok.any():
         curve = np.full(len(a), np.median(inten[ref]))
@@ -290,7 +300,7 @@ def noise_profile(points: np.ndarray, fields: dict[str, np.ndarray] | None = Non
     if residuals is None:
         residuals = seabed_residuals(points, k=k, ping=fields.get("ping"))
     r = np.asarray(residuals, float)
-    sigma = _robust_sigma(r)
+    sigma = robust_sigma(r)
     core = r[np.abs(r - np.median(r)) <= 10 * sigma] if sigma > 0 else r
     by_angle: list[dict[str, Any]] = []
     if "beam_angle" in fields:
@@ -300,14 +310,14 @@ def noise_profile(points: np.ndarray, fields: dict[str, np.ndarray] | None = Non
             m = (ang >= lo) & (ang < hi)
             if m.sum() < 30:
                 continue
-            rb, sb = r[m], _robust_sigma(r[m])
+            rb, sb = r[m], robust_sigma(r[m])
             row: dict[str, Any] = {"angles": [lo, hi], "soundings": int(m.sum()), "sigma": sb,
                                    "p99_ratio": float(np.quantile(np.abs(rb - np.median(rb)), 0.99) / sb)
                                    if sb > 0 else None, "bias": float(np.median(rb))}
             if inten is not None and np.isfinite(inten[m]).any():
                 ib = inten[m][np.isfinite(inten[m])]
                 row["intensity_median"] = float(np.median(ib))
-                row["intensity_spread"] = _robust_sigma(ib)
+                row["intensity_spread"] = robust_sigma(ib)
             by_angle.append(row)
     beam_corr = ping_corr = ping_share = None
     if "ping" in fields and "beam" in fields:

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..checks import check_points, positive
 from ..filters import radius_outlier
+from ..noise import backscatter_anomaly, robust_sigma
 from ..seabed import GridSurface, grid_seabed
 from ..segment import otsu_threshold
 
@@ -108,14 +109,10 @@ def intensity_threshold(cloud_int: np.ndarray | None, elevated: np.ndarray, near
         return None
     # only a split between two clear classes is a threshold: structure brighter than seabed
     mu, md = np.median(up), np.median(down)
-    spread = np.hypot(_robust_spread(up), _robust_spread(down)) / np.sqrt(2.0)
+    spread = np.hypot(robust_sigma(up), robust_sigma(down)) / np.sqrt(2.0)
     if mu <= thr or md >= thr or mu - md < SEPARATION * spread:
         return None
     return thr
-
-
-def _robust_spread(v: np.ndarray) -> float:
-    return float(1.4826 * np.median(np.abs(v - np.median(v))))
 
 
 #: Seabed soundings within this many pile radii (plus 2 m) of a pile's centroid are its
@@ -166,8 +163,6 @@ def pile_thresholds(cloud_int: np.ndarray | None, points: np.ndarray, candidates
         return {c + 1: None for c in ids}, None
     from scipy.spatial import cKDTree
 
-    from ..noise import backscatter_anomaly
-
     cloud_int = np.asarray(cloud_int, float)
     values = cloud_int[candidates].copy()
     ground = np.flatnonzero(near_seabed)
@@ -178,13 +173,13 @@ def pile_thresholds(cloud_int: np.ndarray | None, points: np.ndarray, candidates
         near = ground[tree.query_ball_point(points[own, :2].mean(axis=0), RING_RADII * radius + 2.0)] \
             if tree is not None else np.zeros(0, np.int64)
         rows = np.r_[own, near]
+        is_own = np.arange(len(rows)) < len(own)
         inten = cloud_int[rows]
         if beam_angle is not None:
-            anom = backscatter_anomaly(inten, np.asarray(beam_angle)[rows], np.arange(len(rows)) >= len(own),
+            anom = backscatter_anomaly(inten, np.asarray(beam_angle)[rows], ~is_own,
                                        line=None if line is None else np.asarray(line)[rows])
             if anom is not None:
                 inten = anom
-        values[mine] = inten[:len(own)]
-        is_own = np.arange(len(rows)) < len(own)
+        values[mine] = inten[is_own]
         out[c + 1] = intensity_threshold(inten, is_own, ~is_own)
     return out, values
