@@ -7,6 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..geometry import convex_hull, min_area_rectangle
+from ..noise import robust_sigma
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 from .ground import Seabed
@@ -134,8 +135,7 @@ def ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: Rast
     for _ in range(2):
         coef, *_ = np.linalg.lstsq(design[keep], p[keep, 2], rcond=None)
         res = p[:, 2] - design @ coef
-        mad = 1.4826 * float(np.median(np.abs(res[keep] - np.median(res[keep]))))
-        keep = np.abs(res) <= max(3 * mad, 0.02)
+        keep = np.abs(res) <= max(3 * robust_sigma(res[keep]), 0.02)
         if keep.sum() < 12:
             return None
 
