@@ -38,6 +38,8 @@ CONFIGS: dict[str, dict] = {
     "as-built+8%": {"reef_scale": 1.08},
     # issue 13: 20 rounded rocks of reef size among 75 reefs at 25 m, reefs sunk 0-0.5 m
     "rocky": {"groups": "cross2,hollow,triangle", "seabed": -25.0, "rocks": 20, "burial_max": 0.5},
+    # the same with solid 2 m cubes: flat tops and vertical walls that no shape test may take for rocks
+    "rocky+cubes": {"groups": "cross2,cube,hollow", "seabed": -25.0, "rocks": 20, "burial_max": 0.5},
     "buried": {"burial_max": 0.6},
     "sand-waves-2m": {"sand_wave_amplitude": 1.0, "sand_wave_length": 40.0},
     "strips+-5cm": {"line_offset_sigma": 0.05, "refraction_sigma_deg": 0.05},

@@ -134,7 +134,8 @@ def test_sand_waves_use_the_local_surface_and_rough_shore_is_excluded():
     assert res.seabed["method"] == "grid" and "why" in res.seabed
     assert res.region is not None and res.region.excluded_area > 500
     assert (res.evaluation.tp, res.evaluation.fp) == (25, 0)
-    kept = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False, rounded_spread=0)
+    kept = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False, rounded_spread=0,
+                         dome_misfit=0)
     assert kept.evaluation.fp > 5  # rocks taken for reefs without the exclusion and the shape test
     shaped = extract_reefs(sim.cloud, reference=_reference(sim), exclude_rough=False)
     assert shaped.evaluation.fp < kept.evaluation.fp  # the shape test alone sets most aside as rounded
@@ -339,12 +340,12 @@ def test_rocks_of_reef_size_are_not_reefs():
                    boulders=0, debris=0)
     rocks = [d for d in sim.truth["distractors"] if d["kind"] == "rock"]
     assert len(rocks) == 6 and sim.truth["counts"]["boulder"] > 200
-    blind = extract_reefs(sim.cloud, reference=_reference(sim), rounded_spread=0).evaluation
+    blind = extract_reefs(sim.cloud, reference=_reference(sim), rounded_spread=0, dome_misfit=0).evaluation
     assert blind is not None and (blind.tp, blind.fn) == (8, 0) and blind.fp >= 3  # the case is real
     free = extract_reefs(sim.cloud, reference=_reference(sim))
     assert free.evaluation is not None and (free.evaluation.tp, free.evaluation.fn) == (8, 0)
     assert free.evaluation.fp <= blind.fp - 2
-    rounded = [o for o in free.others if o["reason"].startswith("rounded")]
+    rounded = [o for o in free.others if o["reason"].startswith(("rounded", "a dome"))]
     assert len(rounded) >= 2
     assert all(min(math.hypot(o["x"] - r["x"], o["y"] - r["y"]) for r in rocks) < 1.0 for o in rounded)
     res = extract_reefs(sim.cloud, reference=_reference(sim), design="cross1,hollow")
@@ -376,18 +377,33 @@ def test_a_candidate_lower_than_min_height_is_a_bump_not_a_reef(reef_small):
 
 
 def test_a_dome_is_rounded_and_a_flat_top_is_not():
-    from mbinspect.reefs.run import rounded_shape
+    from mbinspect.reefs.run import dome_shape, rounded_shape
 
     rng = np.random.default_rng(2)
     r = np.sqrt(rng.uniform(0, 1, 3000))
-    # a sunk ellipsoid: the top 0.9 of its half-axis shows
+    # a sunk ellipsoid 2 m across: the top 0.9 of its half-axis shows
     dome = 1.2 * (np.sqrt(1 - (0.9 * r) ** 2) - np.sqrt(0.19)) / (1 - np.sqrt(0.19))
-    spread, plateau = rounded_shape(dome + rng.normal(0, 0.03, len(r)))
+    dome += rng.normal(0, 0.03, len(r))
+    spread, plateau = rounded_shape(dome)
     opts = ReefOptions()
     assert spread >= opts.rounded_spread and plateau <= opts.rounded_plateau
+    t = rng.uniform(0, 2 * np.pi, len(r))
+    xy = np.column_stack([r * np.cos(t), r * np.sin(t)])
+    misfit, drop = dome_shape(xy, dome, 2.0)
+    assert misfit <= opts.dome_misfit and drop >= opts.dome_drop
     top = np.r_[np.full(2400, 1.2), rng.uniform(0.15, 1.2, 600)] + rng.normal(0, 0.03, 3000)  # top and walls
     spread, plateau = rounded_shape(top)
     assert spread < opts.rounded_spread and plateau > opts.rounded_plateau
+    # a box 2 m square, its walls caught round the rim: flat, it does not drop
+    box = rng.uniform(-1, 1, (3000, 2))
+    rim = np.abs(box).max(axis=1) > 0.9
+    z = np.where(rim, rng.uniform(0.15, 1.2, 3000), 1.2) + rng.normal(0, 0.03, 3000)
+    assert dome_shape(box, z, 2.0)[1] < opts.dome_drop
+    # a double cross, two tiers of bars: falls like a dome, fits none
+    a, b = np.abs(box).T
+    bars = (np.minimum(a, b) < 0.27) | (np.abs(a - b) < 0.28)
+    z = np.where(np.minimum(a, b) < 0.2, 2.0, 1.0)[bars] + rng.normal(0, 0.03, bars.sum())
+    assert dome_shape(box[bars], z, 1.1)[0] > opts.dome_misfit
 
 
 def test_a_group_of_buried_reefs_is_not_rough_ground():

@@ -74,7 +74,7 @@ def test_sand_wave_crests_are_not_reefs():
     assert len(bumps) == 1 and bumps[0]["height"] < 0.3
     assert res.filters["radius"]["n_removed"] <= 0.01 * len(cloud)
     # without the ridge and shape tests the ridge comes back as a reef: the case is real
-    assert len(extract_reefs(cloud, max_elongation=0, rounded_spread=0).reefs) == 1
+    assert len(extract_reefs(cloud, max_elongation=0, rounded_spread=0, dome_misfit=0).reefs) == 1
     # given designs, nothing either
     designed = extract_reefs(cloud, design="cross1,cross2,hollow,triangle")
     assert not designed.reefs and all(o["reason"] for o in designed.others)

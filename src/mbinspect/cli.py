@@ -623,7 +623,7 @@ def build_parser() -> argparse.ArgumentParser:
              "  mbinspect reefs reefs-in/soundings.npz --reference reefs-in/reference.csv\n\n"
              "piles.csv: id,x,y,radius and top (elevation, m) or height (above the seabed, m);\n"
              "optional tilt_deg, tilt_azimuth_deg, group\n"
-             "reefs.csv: id,x,y,kind (cross2, cross1, hollow, triangle); optional bearing_deg,\n"
+             "reefs.csv: id,x,y,kind (cross2, cross1, hollow, triangle, cube); optional bearing_deg,\n"
              "scale (as built / design), burial (m sunk, default 0.1), group")
     _add_input(p)
     p.add_argument("--piles", metavar="CSV", help="the piles to inject (see below)")

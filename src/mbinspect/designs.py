@@ -235,6 +235,7 @@ def _builtin() -> dict[str, ReefDesign]:
         "cross2": ReefDesign("cross2", _cross(3.0, 0.8, 1.0) + upper, 4),
         "hollow": ReefDesign("hollow", hollow, 4),
         "triangle": ReefDesign("triangle", tri, 3),
+        "cube": ReefDesign("cube", (DesignBox(0, 0, 0, 2.0, 2.0, 2.0, 0.0),), 4),
     }
 
 
@@ -242,7 +243,8 @@ def _builtin() -> dict[str, ReefDesign]:
 #: ``cross2`` a double-layer cross (3.0 x 0.8 x 1.0 m bars, and on them 2.6 x 0.6 x 1.0 m
 #: bars turned 45 degrees, 2.0 m tall); ``cross1`` a single-layer cross of 3.0 x 0.8 x 1.2 m
 #: bars; ``hollow`` a hollow square 3.0 x 3.0 m with 0.3 m walls, 1.5 m tall; ``triangle``
-#: three 3.0 x 0.4 x 1.2 m bars in an equilateral triangle.
+#: three 3.0 x 0.4 x 1.2 m bars in an equilateral triangle; ``cube`` a solid 2.0 m concrete
+#: cube (the flat top and vertical walls the shape test for rocks must not take for a dome).
 BUILTIN_DESIGNS: dict[str, ReefDesign] = _builtin()
 
 

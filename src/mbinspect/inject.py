@@ -58,7 +58,7 @@ class InjectedPile:
 
 @dataclass(frozen=True)
 class InjectedReef:
-    """A reef to inject: a built-in design (``cross2``, ``cross1``, ``hollow``, ``triangle``)
+    """A reef to inject: a built-in design (``cross2``, ``cross1``, ``hollow``, ``triangle``, ``cube``)
     at (x, y) in the survey's coordinates, turned by ``bearing_deg``, built ``scale`` times
     the design's size, its base ``burial`` m below the survey's seabed there (sunk)."""
 
@@ -123,7 +123,7 @@ def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *
     >>> across = 20 * np.tan(np.radians(ang))
     >>> pts = np.column_stack([100 + across, np.full(41, 50.0), np.full(41, -20.0)])
     >>> o, ok = ping_origins(pts, np.zeros(41, int), ang)
-    >>> np.round(o[0], 6).tolist(), bool(ok.all())
+    >>> (np.round(o[0], 6) + 0.0).tolist(), bool(ok.all())
     ([100.0, 50.0, 0.0], True)
     """
     pts = np.asarray(points, float)

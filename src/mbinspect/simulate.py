@@ -886,7 +886,7 @@ def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float,
     """The boxes of one reef design placed at local (x, y) with its base at ``z_base``.
 
     ``kind`` names one of :data:`mbinspect.designs.BUILTIN_DESIGNS` (``cross2``,
-    ``cross1``, ``hollow``, ``triangle``); ``scale`` is the as-built size relative to the
+    ``cross1``, ``hollow``, ``triangle``, ``cube``); ``scale`` is the as-built size relative to the
     design (every dimension).
 
     Parameters
@@ -995,7 +995,7 @@ class ReefFieldOptions:
     """The ``reef-field`` preset, after the reef paper: groups of 25 reefs at -17.3 m.
 
     ``groups`` lists the reef kind of each group (``cross2``, ``cross1``, ``hollow``,
-    ``triangle`` or ``mixed``). Lengths in m, angles in degrees.
+    ``triangle``, ``cube`` or ``mixed``). Lengths in m, angles in degrees.
     """
 
     groups: str = "cross2,cross2,cross2,cross1"  #: reef kind per group

@@ -99,6 +99,14 @@ class ReefOptions(Options):
     rounded_plateau: float = option(0.42, help="rocks are rounded: at most this share of a rock's soundings "
                                     "lie within 0.15 of its height below its top (a reef's flat top holds "
                                     "more)", check="fraction", metavar="SHARE")
+    dome_misfit: float = option(0.12, help="rocks are domes: a candidate whose upper soundings (above 0.3 "
+                                "of its height) fit a quadratic surface within this share of its height "
+                                "(RMS), curving down by at least dome_drop, is a rock (0: off)",
+                                check="non_negative", metavar="SHARE")
+    dome_drop: float = option(0.2, help="rocks are domes: the least drop of that surface, as a share of the "
+                              "candidate's height, across half its thickest part along its most curved "
+                              "direction (a reef's flat top, or a hollow square's, does not drop)",
+                              check="non_negative", metavar="SHARE")
     min_pings: int = option(3, help="a reef's soundings must come from at least this many pings (where the "
                             "input has pings): one ping's streak across a ripple crest has no plan shape",
                             check="count", metavar="N")

@@ -136,9 +136,9 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     if ground.report is not None:
         filters["rough_terrain"] = ground.report
     kept = ground.points
-    ping = cloud.fields.get("ping")
-    if ping is not None:
-        ping = ping[keep] if ground.kept is None else ping[keep][ground.kept]
+    ping, line = (cloud.fields.get(k) for k in ("ping", "line"))
+    ping, line = ((f[keep] if ground.kept is None else f[keep][ground.kept]) if f is not None else None
+                  for f in (ping, line))
     _enough(kept, filter_note)
     report(0.35)
     surf, seabed_info = fit_seabed(kept, mode=opts.seabed if local else "plane",
@@ -167,7 +167,8 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     others: list[dict[str, Any]] = []
     used_area = None
     if is_reef.any() and local:
-        reefs, others, used_area, members = reef_islands(kept, is_reef, surf, h_all, opts, ping=ping)
+        reefs, others, used_area, members = reef_islands(kept, is_reef, surf, h_all, opts, ping=ping,
+                                                               line=line)
         rows = np.flatnonzero(keep) if ground.kept is None else np.flatnonzero(keep)[ground.kept]
         files = cloud.meta.get("files") or [cloud.source or "(array)"]
         reefs = [replace(r, sources=sources(rows[m], cloud.fields, files))
@@ -204,7 +205,7 @@ ISLAND_CELL = 10.0
 
 
 def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
-                 options: ReefOptions, ping: np.ndarray | None = None
+                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
                  ) -> tuple[list[Reef], list[dict[str, Any]], float, list[np.ndarray]]:
     """:func:`single_reefs` on each group of reef points at least :data:`ISLAND_GAP` m from
     the others, so that time and memory follow the reef points, not their extent.
@@ -217,7 +218,7 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     cells, inverse = np.unique(np.column_stack([ci, cj]), axis=0, return_inverse=True)
     n, group = cell_groups(cells, int(math.ceil(ISLAND_GAP / ISLAND_CELL)) + 1)
     if n <= 1:
-        return single_reefs(points, is_reef, seabed, height, options, ping=ping)
+        return single_reefs(points, is_reef, seabed, height, options, ping=ping, line=line)
     # each sounding's cell, as one sortable key, and the soundings of a group's cells and
     # the cells around them (more than the raster's pad around any reef point)
     ai, aj = cell_index(points, 0.0, 0.0, ISLAND_CELL)
@@ -240,7 +241,8 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         flag = np.zeros(len(sub), dtype=bool)
         flag[np.searchsorted(sub, rows[group_of_row == g])] = True
         r, o, area, m = single_reefs(points[sub], flag, seabed, height[sub], options,
-                                     ping=None if ping is None else ping[sub])
+                                     ping=None if ping is None else ping[sub],
+                                     line=None if line is None else line[sub])
         reefs += r
         others += o
         areas.append(area)
@@ -249,7 +251,7 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
 
 
 def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
-                 options: ReefOptions, ping: np.ndarray | None = None
+                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
                  ) -> tuple[list[Reef], list[dict[str, Any]], float, list[np.ndarray]]:
     """The single reefs among the reef points, each measured (our method).
 
@@ -269,6 +271,9 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     ping : ndarray of int, shape (N,), optional
         Each sounding's ping: a reef seen by fewer than ``options.min_pings`` pings is
         listed among the others with the reason.
+    line : ndarray of int, shape (N,), optional
+        Each sounding's line: its height offset from the others (:func:`line_levels`) is
+        removed before a candidate's shape is judged.
 
     Examples
     --------
@@ -314,12 +319,13 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         others.append(_other(measure_reef(points, p, raster, seabed, is_reef=is_reef),
                              f"smaller than `min_area` {options.min_area:g} m²"))
     kept, kept_members = [], []
+    ground = _ground_by_x(points, is_reef, height, line) if line is not None else None
     for r, p, m in zip(reefs, parts, _members(points, is_reef, raster, parts), strict=True):
         # a design that fits at its size (with few edge soundings astray) is a stronger
         # witness than the shape of a top: a deeply sunk triangle's sloping faces look rounded
         witness = r.design and abs(r.design_scale - 1) <= DESIGN_WITNESS_SCALE
         why = (_not_a_reef(r, p, raster, is_reef, ping, options)
-               or (None if witness else _rounded(points, r, p, raster, height, options)))
+               or (None if witness else _rounded(points, r, p, raster, options, line, ground)))
         if why:
             others.append(_other(r, why))
         else:
@@ -425,6 +431,60 @@ def rounded_shape(height: np.ndarray) -> tuple[float, float]:
     return spread, float(np.mean(h >= (1 - PLATEAU_DEPTH) * top))
 
 
+#: Share of a candidate's height above which its soundings are its upper part (:func:`dome_shape`),
+#: and the most of its surface a dome holds near its top (``plateau`` of :func:`rounded_shape`;
+#: rocks of the rocky field 0.14-0.52): a box's flat top holds most of it (solid 2 m cubes,
+#: 0.80-0.97), though its rim falls like a dome's.
+DOME_BASE = 0.3
+DOME_PLATEAU = 0.6
+
+
+def dome_shape(xy: np.ndarray, z: np.ndarray, across: float) -> tuple[float, float]:
+    """How much a candidate is a dome: a quadratic surface fitted to its upper soundings
+    (above :data:`DOME_BASE` of its top, the 95th percentile of ``z``).
+
+    Parameters
+    ----------
+    xy : ndarray, shape (N, 2)
+        Plan positions (m).
+    z : ndarray, shape (N,)
+        Heights (m) above the seabed.
+    across : float
+        The width (m) of its thickest part (:func:`thickness`).
+
+    Returns
+    -------
+    misfit : float
+        The fit's RMS residual as a share of its top: a rock's dome is within the noise of
+        one, a stepped or hollow reef is not.
+    drop : float
+        How far the surface falls across half of ``across`` along its most curved direction,
+        as a share of its top: most of a dome's height, nothing for a flat top. NaN both
+        with fewer than 10 upper soundings.
+
+    Examples
+    --------
+    >>> g = np.stack(np.meshgrid(np.linspace(-1, 1, 21), np.linspace(-1, 1, 21)), -1).reshape(-1, 2)
+    >>> disc = g[np.hypot(*g.T) < 1]
+    >>> dome = np.sqrt(1 - np.sum(disc**2, axis=1))
+    >>> [round(v, 2) for v in dome_shape(disc, dome, 2.0)]
+    [0.03, 0.75]
+    >>> [abs(round(v, 2)) for v in dome_shape(disc, np.ones(len(disc)), 2.0)]  # a flat top
+    [0.0, 0.0]
+    """
+    top = float(np.percentile(z, 95))
+    up = z >= DOME_BASE * top
+    if up.sum() < 10 or top <= 0:
+        return math.nan, math.nan
+    p = xy[up] - xy[up].mean(axis=0)
+    design = np.column_stack([np.ones(len(p)), p, p**2, p[:, 0] * p[:, 1]])
+    coef, *_ = np.linalg.lstsq(design, z[up], rcond=None)
+    misfit = float(np.sqrt(np.mean((z[up] - design @ coef) ** 2))) / top
+    hessian = np.array([[2 * coef[3], coef[5]], [coef[5], 2 * coef[4]]])
+    curvature = -float(np.linalg.eigvalsh(hessian).min())  # the most downward, 1/m
+    return misfit, curvature / 2 * (across / 2) ** 2 / top
+
+
 #: A design fitted within this share of its size overrides the shape test for rocks (a
 #: looser ``design_scale_tolerance``, for reefs built smaller, does not).
 DESIGN_WITNESS_SCALE = 0.15
@@ -435,25 +495,83 @@ DESIGN_WITNESS_SCALE = 0.15
 SHAPE_SOUNDINGS_ACROSS = 6
 
 
-def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, height: np.ndarray,
-             options: ReefOptions) -> str | None:
-    """Why a candidate is a rock by its shape, or None: :func:`rounded_shape` of the elevation
-    of each footprint cell's nearest sounding above the seabed at its centre (its surface by
-    plan area, however many soundings its walls caught from oblique beams; elevations, not
-    heights above a seabed that bends under it on a sand wave). Not judged where its
-    soundings lie too far apart to show a shape (:data:`SHAPE_SOUNDINGS_ACROSS`)."""
-    if not options.rounded_spread:
+def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, options: ReefOptions,
+             line: np.ndarray | None, ground: tuple[np.ndarray, ...] | None
+             ) -> str | None:
+    """Why a candidate is a rock by its shape, or None. Its surface is the elevation of each
+    footprint cell's nearest sounding above the seabed at its centre (its surface by plan
+    area, however many soundings its walls caught from oblique beams; elevations, not heights
+    above a seabed that bends under it on a sand wave), each less its line's level
+    (:func:`line_levels`). A rock is a dome (:func:`dome_shape`) or rounded
+    (:func:`rounded_shape`); neither is judged where too few soundings lie across it to
+    show its top's edges (:data:`SHAPE_SOUNDINGS_ACROSS`: a coarse grid blurs a stepped
+    cross into a dome)."""
+    if not (options.rounded_spread or options.dome_misfit):
         return None
     idx = _cell_soundings(cells, raster)
     own = np.unique(idx)
-    if len(own) < 10 or sounding_spacing(points[own]) > thickness(cells, raster) / SHAPE_SOUNDINGS_ACROSS:
+    across = thickness(cells, raster)
+    if len(own) < 10 or sounding_spacing(points[own]) > across / SHAPE_SOUNDINGS_ACROSS:
         return None
-    spread, plateau = rounded_shape(points[idx, 2] - reef.z_seabed)
-    if spread >= options.rounded_spread and plateau <= options.rounded_plateau:
+    z = points[idx, 2] - reef.z_seabed
+    if line is not None and ground is not None:
+        z = z - line_levels(points[idx], line[idx], ground)
+    misfit, drop = dome_shape(points[idx, :2], z, across)
+    spread, plateau = rounded_shape(z)
+    if misfit <= options.dome_misfit and drop >= options.dome_drop and plateau <= DOME_PLATEAU:
+        return (f"a dome: its upper soundings fit a curved surface within {misfit:.0%} of its height "
+                f"(`dome_misfit` {options.dome_misfit:g}) that drops {drop:.0%} of its height across half "
+                f"its {across:.1f} m width (`dome_drop` {options.dome_drop:g}), with {plateau:.0%} of it "
+                "near its top: a rock, not a reef")
+    if spread >= options.rounded_spread > 0 and plateau <= options.rounded_plateau:
         return (f"rounded: its highest soundings spread over {spread:.0%} of its height (`rounded_spread` "
                 f"{options.rounded_spread:g}) and {plateau:.0%} lie near its top (`rounded_plateau` "
                 f"{options.rounded_plateau:g}): a rock, not a reef's flat top")
     return None
+
+
+#: Margin (m) around a candidate whose seabed soundings give each line's level, and the
+#: least of them a line needs there for its level to be taken (else none is removed).
+LEVEL_MARGIN = 2.0
+LEVEL_MIN = 10
+
+
+def _ground_by_x(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, line: np.ndarray
+                 ) -> tuple[np.ndarray, ...]:
+    """The seabed soundings (not reef points, within the ground band), sorted by x: their
+    x, y, line and height above the seabed."""
+    rows = np.flatnonzero(~is_reef & (np.abs(height) <= GROUND_BAND))
+    rows = rows[np.argsort(points[rows, 0], kind="stable")]
+    return points[rows, 0], points[rows, 1], line[rows], height[rows]
+
+
+def line_levels(xy: np.ndarray, line: np.ndarray, ground: tuple[np.ndarray, ...],
+                margin: float = LEVEL_MARGIN) -> np.ndarray:
+    """Each sounding's line's level: the median height above the seabed of that line's
+    seabed soundings within ``margin`` (m) of the soundings' extent (``ground`` as
+    :func:`_ground_by_x` gives). Strips that disagree by a few centimetres put a reef's
+    flat top at two heights, which spread like a dome's; a line with fewer than
+    :data:`LEVEL_MIN` seabed soundings there keeps its height.
+
+    Examples
+    --------
+    >>> gx = np.repeat(np.arange(10.0), 4)
+    >>> ground = (gx, np.zeros(40), np.tile([1, 1, 2, 2], 10), np.tile([0.05, 0.05, -0.05, -0.05], 10))
+    >>> line_levels(np.array([[4.0, 0.5], [5.0, 0.5]]), np.array([1, 2]), ground).tolist()
+    [0.05, -0.05]
+    """
+    gx, gy, gline, gh = ground
+    (x0, y0), (x1, y1) = xy[:, :2].min(axis=0) - margin, xy[:, :2].max(axis=0) + margin
+    a, b = np.searchsorted(gx, [x0, x1], side="left")
+    near = slice(a, b)
+    inside = (gy[near] >= y0) & (gy[near] <= y1)
+    lines, h = gline[near][inside], gh[near][inside]
+    level = np.zeros(len(line))
+    for k in np.unique(line):
+        own = h[lines == k]
+        if len(own) >= LEVEL_MIN:
+            level[line == k] = np.median(own)
+    return level
 
 
 def thickness(cells: np.ndarray, raster: Raster) -> float:

@@ -199,35 +199,42 @@ def merge_fragments(parts: list[np.ndarray], areas: np.ndarray, nx: int, cell: f
         pool[i] = (parts[i], xy, float(areas[i]), float(ra[i]), xy.mean(axis=0))
     parts = list(parts)
     gone: set[int] = set()  # parts absorbed into another
-    while len(pool) >= 2:
-        best = None
-        keys = sorted(pool)
-        # only fragments whose centres lie within ``limit`` can be one reef: asked of a tree,
-        # so that a noisy field's many specks do not make every pair a candidate
-        near = cKDTree(np.array([pool[k][4] for k in keys])).query_pairs(limit, output_type="ndarray")
-        for n_a, n_b in sorted(map(tuple, near)):
-            a, b = keys[n_a], keys[n_b]
-            pa, xa, aa, ra_a, ca = pool[a]
-            pb, xb, ab, ra_b, cb = pool[b]
-            if aa + ab > 1.3 * max(ra_a, ra_b):
-                continue
-            # of the possible unions, first the one spanning most nearly one whole reef
-            # (two walls of one hollow reef, not the facing walls of two neighbours)
-            d_union = diameter(np.vstack([xa, xb]))
-            score = abs(d_union - typical((ca + cb) / 2))
-            if d_union <= limit_at((ca + cb) / 2) and (best is None or score < best[0]):
-                best = (score, a, b)
-        if best is None:
+
+    def score(a: int, b: int) -> float | None:  # how nearly a and b make one whole reef
+        _, xa, aa, ra_a, ca = pool[a]
+        _, xb, ab, ra_b, cb = pool[b]
+        if aa + ab > 1.3 * max(ra_a, ra_b):
+            return None
+        # of the possible unions, first the one spanning most nearly one whole reef
+        # (two walls of one hollow reef, not the facing walls of two neighbours)
+        d_union = diameter(np.vstack([xa, xb]))
+        mid = (ca + cb) / 2
+        return abs(d_union - typical(mid)) if d_union <= limit_at(mid) else None
+
+    # only fragments whose centres lie within ``limit`` can be one reef: asked of a tree,
+    # so that a noisy field's many specks do not make every pair a candidate; each pair is
+    # scored once, and after a union only the union's pairs again
+    keys = sorted(pool)
+    near = cKDTree(np.array([pool[k][4] for k in keys])).query_pairs(limit, output_type="ndarray")
+    scores = {(keys[i], keys[j]): score(keys[i], keys[j]) for i, j in map(tuple, near)}
+    while True:
+        valid = [(v, ab) for ab, v in scores.items() if v is not None]
+        if not valid:
             break
-        _, a, b = best
+        _, (a, b) = min(valid)  # the lowest score; of equal scores the first pair
         pa, xa, aa, ra_a, _ = pool.pop(a)
         pb, xb, ab, ra_b, _ = pool.pop(b)
+        scores = {k: v for k, v in scores.items() if a not in k and b not in k}
         parts[a] = np.concatenate([pa, pb])
         gone.add(b)
         r = max(ra_a, ra_b)
         if aa + ab < r:  # still smaller than one reef: open to more fragments
             xy = np.vstack([xa, xb])
             pool[a] = (parts[a], xy, aa + ab, r, xy.mean(axis=0))
+            c = pool[a][4]
+            for k in pool:
+                if k != a and np.hypot(*(pool[k][4] - c)) <= limit:
+                    scores[min(a, k), max(a, k)] = score(min(a, k), max(a, k))
     out = [p for i, p in enumerate(parts) if i not in gone]
     return out, np.array([len(p) for p in out]) * cell * cell
 
