@@ -10,7 +10,7 @@ import pytest
 from mbinspect.errors import DataError
 from mbinspect.inject import InjectedReef, inject
 from mbinspect.io import PointCloud, read
-from mbinspect.reefs import denoise, extract_reefs
+from mbinspect.reefs import ReefOptions, denoise, extract_reefs
 
 DATA = Path(__file__).parent / "data"
 
@@ -78,3 +78,40 @@ def test_sand_wave_crests_are_not_reefs():
     # given designs, nothing either
     designed = extract_reefs(cloud, design="cross1,cross2,hollow,triangle")
     assert not designed.reefs and all(o["reason"] for o in designed.others)
+
+
+def test_a_line_across_a_wide_empty_extent_runs_in_tiles_that_follow_it(tmp_path):
+    """Ten copies of a real line 424 m apart on a diagonal: one seabed grid over their
+    2.7 km square extent took 2.4 GB in memory and 12 s. The survey runner sees that
+    before any grid is made and cuts the line into tiles that follow it; each copy gets
+    the answer the copy alone gets. Thirty such patches are the survey, not thirty
+    navigation jumps (the stray rule once kept only the largest)."""
+    from mbinspect.grid import stray_cells
+    from mbinspect.io import write
+    from mbinspect.survey.run import SurveyOptions, run_survey
+
+    cloud = read(DATA / "pdal_mbf_em300raw.mb56")
+    one = extract_reefs(cloud)
+    n, step = 10, 300.0
+    xyz = np.concatenate([cloud.xyz + [k * step, k * step, 0] for k in range(n)])
+    fields = {k: np.concatenate([v] * n) for k, v in cloud.fields.items()}
+    write(PointCloud(xyz, fields, crs=cloud.crs), tmp_path / "line.laz")
+    said: list[str] = []
+    run = run_survey("reefs", [tmp_path / "line.laz"], ReefOptions(),
+                     SurveyOptions(workers=1), note=said.append)
+    assert run.tiled and run.tiles >= n
+    assert any("run in tiles that follow the soundings" in s for s in said)
+    assert len(run.result.others) == n * len(one.others) >= n
+    for o in run.result.others:
+        k = round((o["x"] - one.others[0]["x"]) / step)
+        assert abs(o["x"] - k * step - one.others[0]["x"]) < 1e-3
+        assert abs(o["y"] - k * step - one.others[0]["y"]) < 1e-3
+    assert not stray_cells(np.array([[30 * k, 0] for k in range(30)]), np.full(30, 1000)).any()
+
+
+def test_a_library_run_over_an_extent_no_grid_fits_stops_with_the_reason():
+    rng = np.random.default_rng(0)
+    patch = np.column_stack([rng.uniform(0, 30, (5000, 2)), rng.normal(-20, 0.02, 5000)])
+    far = patch + [100_000.0, 100_000.0, 0.0]  # a 3 TB grid: more than any machine holds
+    with pytest.raises(DataError, match=r"seabed grid over their extent would take [\d.]+ GB"):
+        extract_reefs(np.vstack([patch, far]))

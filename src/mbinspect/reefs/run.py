@@ -11,9 +11,10 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError, ParameterError
-from ..grid import cell_groups, cell_index, sounding_spacing
+from ..grid import cell_groups, cell_index, extent_bytes, sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
+from ..survey.cluster import machine_memory
 from ..survey.trace import sources
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
@@ -68,6 +69,12 @@ def _check_resolution(pts: np.ndarray, opts: ReefOptions, filter_note: str | Non
         raise DataError(f"the soundings lie {spacing:.2f} m apart (median plan distance to the nearest): "
                         f"too sparse to resolve objects of `min_area` {opts.min_area:g} m², which need "
                         f"soundings under {most / 2:.2f} m apart; no reef can be reported from these data")
+    grid = extent_bytes(pts, opts.seabed_cell)
+    if grid > machine_memory() / 2:
+        raise DataError(f"the soundings spread so wide that a seabed grid over their extent would take "
+                        f"{grid / 1e9:.1f} GB (`seabed_cell` {opts.seabed_cell:g} m), more than half this "
+                        "machine's memory: run `mbinspect reefs` (or mbinspect.survey.run_survey), which "
+                        "cuts such a survey into tiles that follow its soundings")
     depth = -float(np.median(pts[:, 2]))
     footprint = 2 * depth * math.tan(math.radians(opts.beam_width_deg) / 2)
     if footprint > most:

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..errors import DataError
-from ..grid import stray_cells
+from ..errors import DataError, NotEnoughPointsError
+from ..grid import BYTES_PER_CELL, extent_bytes, stray_cells
 from ..io import PointCloud, format_from_path
 from ..options import Options, option
 from ..reefs.detect import STAT_BLOCK, STAT_REACH
@@ -49,6 +49,11 @@ TILE_FIELDS = {"reefs": ("ping",), "piles": ("ping", "intensity", "beam_angle")}
 #: process on a reef tile of 7.8 M soundings (benchmarks/RESULTS.md), with a margin.
 TILE_BASE_BYTES = 250e6
 TILE_BYTES_PER_SOUNDING = 160
+
+#: A survey held in memory whose seabed grid over its extent would take more than its
+#: soundings and more than this (bytes) runs in tiles instead (a line across a wide,
+#: empty extent: :func:`~mbinspect.grid.extent_bytes`).
+SPARSE_BYTES = 500e6
 
 
 @dataclass(frozen=True)
@@ -139,8 +144,15 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
     tiled = survey.tiled or n_est * BYTES_PER_SOUNDING > limit or survey.scheduler is not None
     if not tiled:
         cloud = read_survey(files, **ropts)
-        result = _whole(kind, cloud, options, extra)
-        return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
+        grid = extent_bytes(cloud.xyz, options.seabed_cell)
+        if grid > max(len(cloud) * BYTES_PER_SOUNDING, SPARSE_BYTES):
+            tiled = True
+            say(f"the soundings' extent would take a seabed grid of {grid / 1e9:.1f} GB in one piece "
+                f"(`seabed_cell` {options.seabed_cell:g} m) for {len(cloud):,} soundings: run in tiles "
+                "that follow the soundings")
+        else:
+            result = _whole(kind, cloud, options, extra)
+            return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
     buffer = _buffer(kind, options)
     block = TilePlan.block_for(buffer, survey.tile_size)
     say(f"{len(files)} file(s), about {n_est:,} soundings: binned in blocks of {block:g} m")
@@ -150,7 +162,8 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
             bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
                              progress=progress, block=block, workdir=tmp, read_options=ropts,
                              chunk=survey.chunk, fields=TILE_FIELDS[kind])
-            plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey))
+            plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey),
+                                 options.seabed_cell)
             tile_opts, notes = tile_options(kind, options)
             if not sizing.get("within_budget", True):
                 notes.append(f"tiled: the smallest tiles the buffer allows read {sizing['largest']:,} "
@@ -226,7 +239,7 @@ def _worker_count(client: Any, survey: SurveyOptions) -> int:
 
 
 def _plan(bins: Sequence[FileBins], buffer: float, block: float, survey: SurveyOptions,
-          workers: int) -> tuple[TilePlan, dict[str, Any]]:
+          workers: int, cell: float) -> tuple[TilePlan, dict[str, Any]]:
     """The given tile size, or the one :func:`~mbinspect.survey.tiles.choose_plan` finds
     fastest within the memory of a tile."""
     if survey.tile_size is not None:
@@ -234,7 +247,8 @@ def _plan(bins: Sequence[FileBins], buffer: float, block: float, survey: SurveyO
     memory = survey.tile_memory * 1e9 if survey.tile_memory else min(1.8e9, machine_memory() * 0.8 / workers)
     budget = max(memory - TILE_BASE_BYTES, 0.0) / TILE_BYTES_PER_SOUNDING
     blocks, counts = block_counts(bins)
-    return choose_plan(blocks, counts, buffer, block, budget=budget, workers=workers)
+    return choose_plan(blocks, counts, buffer, block, budget=budget, workers=workers,
+                       area_weight=BYTES_PER_CELL / cell**2 / TILE_BYTES_PER_SOUNDING)
 
 
 @dataclass(frozen=True)
@@ -341,7 +355,7 @@ def _run_tile(task: TileTask) -> TileOutcome:
         rejected = tuple(o for o in m.rejected if mine(o["x"], o["y"]))
         return TileOutcome(task.key, tuple(keep), rejected, {p.id: m.covs[p.id] for p in keep},
                            m.warnings, len(cloud), sample, stats)
-    except DataError as exc:
+    except (DataError, NotEnoughPointsError) as exc:
         where = f"tile {task.key[0]},{task.key[1]} ({x0:.0f}–{x1:.0f} E, {y0:.0f}–{y1:.0f} N)"
         return TileOutcome(task.key, (), (), {}, (f"{where}: {exc}",), len(cloud), sample, stats)
 
@@ -412,8 +426,8 @@ def _merge_reefs(outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[s
               if rms else math.nan}
     removed = sum(o.stats["filters"]["radius"]["n_removed"] for o in outcomes if "filters" in o.stats)
     filters = {"radius": {"n_removed_in_buffered_tiles": removed}}
-    areas = [float(o.stats["reef_area"]) for o in outcomes if o.stats.get("reef_area") is not None]
+    areas = np.array([o.stats["reef_area"] for o in outcomes if o.stats.get("reef_area") is not None], float)
+    area = float(np.median(areas[np.isfinite(areas)])) if np.isfinite(areas).any() else math.nan
     return ReefResult(tuple(reefs), tuple(groups), others, seabed, filters, evaluation, parameters,
-                      tuple(warnings), None, None,
-                      {"reef_area_used": float(np.nanmedian(areas)) if areas else math.nan}, ref_xy)
+                      tuple(warnings), None, None, {"reef_area_used": area}, ref_xy)
 

@@ -264,13 +264,26 @@ def block_counts(bins: Sequence[FileBins]) -> tuple[np.ndarray, np.ndarray]:
     return _unpack(u), np.bincount(inv.ravel(), weights=counts).astype(np.int64)
 
 
-def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray) -> np.ndarray:
+def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray, area_weight: float = 0.0
+                ) -> np.ndarray:
     """Soundings each tile reads (its blocks and buffer), for the tiles that hold any of
-    their own."""
+    their own; plus ``area_weight`` soundings' worth per m² of the rectangle its read
+    blocks span (its seabed grids span that, however few soundings it holds)."""
     ti, tj, rows = plan.tiles_of_blocks(blocks[:, 0], blocks[:, 1])
     key = _pack(ti, tj)
     u, inv = np.unique(key, return_inverse=True)
-    reads = np.bincount(inv.ravel(), weights=counts[rows])
+    inv = inv.ravel()
+    reads = np.bincount(inv, weights=counts[rows])
+    if area_weight:
+        span = []
+        for axis in (0, 1):
+            b = blocks[rows, axis]
+            lo = np.full(len(u), np.iinfo(np.int64).max)
+            hi = np.full(len(u), np.iinfo(np.int64).min)
+            np.minimum.at(lo, inv, b)
+            np.maximum.at(hi, inv, b)
+            span.append(hi - lo + 1)
+        reads = reads + area_weight * (span[0] * span[1]).astype(np.float64) * plan.block**2
     homes = _pack((blocks[:, 0] - plan.origin[0]) // plan.blocks,
                   (blocks[:, 1] - plan.origin[1]) // plan.blocks)
     owns = np.bincount(np.searchsorted(u, homes), weights=counts, minlength=len(u))
@@ -286,15 +299,18 @@ def _makespan(loads: np.ndarray, workers: int, overhead: float) -> float:
 
 
 def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: float, *, budget: float,
-                workers: int, overhead: float = 2e5, origins: int = 6) -> tuple[TilePlan, dict[str, Any]]:
+                workers: int, overhead: float = 2e5, origins: int = 6, area_weight: float = 0.0
+                ) -> tuple[TilePlan, dict[str, Any]]:
     """The tiles (a side of whole blocks and where the lattice starts) that finish soonest
     on ``workers`` with no tile reading more than ``budget`` soundings.
 
     Every side from the smallest the buffer allows to one tile over the whole survey is
     tried, each from up to ``origins`` × ``origins`` starting blocks, on the exact block
     counts: the tiles' reads (own soundings and buffer) are scheduled largest first, each
-    with ``overhead`` soundings' worth of start-up. Where no plan keeps every tile within
-    the budget, the one with the smallest largest tile.
+    with ``overhead`` soundings' worth of start-up, and ``area_weight`` soundings' worth per
+    m² its read blocks span (:func:`_tile_loads`: so that a line across a wide, empty
+    extent is cut into tiles that follow it). Where no plan keeps every tile within the
+    budget, the one with the smallest largest tile.
 
     Returns
     -------
@@ -313,7 +329,7 @@ def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: fl
         for oi in steps:
             for oj in steps:
                 plan = TilePlan(k * block, buffer, block, (int(lo[0]) - oi, int(lo[1]) - oj))
-                reads = _tile_loads(plan, blocks, counts)
+                reads = _tile_loads(plan, blocks, counts, area_weight)
                 largest = float(reads.max())
                 smallest = min(smallest, largest)
                 fits = largest <= budget
