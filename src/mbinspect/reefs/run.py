@@ -525,7 +525,8 @@ def _rounded(points: np.ndarray, reef: Reef, cells: np.ndarray, raster: Raster, 
         z = z - line_levels(points[idx], line[idx], ground)
     misfit, drop = dome_shape(points[idx, :2], z, across)
     spread, plateau = rounded_shape(z)
-    if misfit <= options.dome_misfit and drop >= options.dome_drop and plateau <= DOME_PLATEAU:
+    if 0 < options.dome_misfit and misfit <= options.dome_misfit and drop >= options.dome_drop \
+            and plateau <= DOME_PLATEAU:
         return (f"a dome: its upper soundings fit a curved surface within {misfit:.0%} of its height "
                 f"(`dome_misfit` {options.dome_misfit:g}) that drops {drop:.0%} of its height across half "
                 f"its {across:.1f} m width (`dome_drop` {options.dome_drop:g}), with {plateau:.0%} of it "
