@@ -272,10 +272,31 @@ def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 
     if len(xy) == 0:
         return np.zeros(0, dtype=bool)
     # cells counted from (0, 0), not from the soundings' corner: a tile of a survey sees the
-    # same cells as the whole survey
-    ij = np.floor(xy / cell).astype(np.int64)
-    cells, inverse, counts = np.unique(ij, axis=0, return_inverse=True, return_counts=True)
-    return stray_cells(cells, counts, gap_cells=gap_cells, share=share)[inverse.ravel()]
+    # same cells as the whole survey; a chunk at a time, so that 10 M soundings cost no more
+    # than their own arrays (one pass over all of them took 0.5 GB)
+    spans = range(0, len(xy), STRAY_CHUNK)
+    parts = [np.unique(_cell_key(xy[s:s + STRAY_CHUNK], cell), return_counts=True) for s in spans]
+    keys, inverse = np.unique(np.concatenate([k for k, _ in parts]), return_inverse=True)
+    counts = np.bincount(inverse.ravel(), weights=np.concatenate([c for _, c in parts])).astype(np.int64)
+    cells = np.column_stack([(keys >> 32) - _KEY_OFFSET, (keys & 0xFFFFFFFF) - _KEY_OFFSET])
+    bad = keys[stray_cells(cells, counts, gap_cells=gap_cells, share=share)]
+    out = np.zeros(len(xy), dtype=bool)
+    if len(bad):
+        for s in spans:
+            out[s:s + STRAY_CHUNK] = np.isin(_cell_key(xy[s:s + STRAY_CHUNK], cell), bad)
+    return out
+
+
+#: Soundings :func:`stray_soundings` bins at a time.
+STRAY_CHUNK = 1_000_000
+_KEY_OFFSET = 1 << 31
+
+
+def _cell_key(xy: np.ndarray, cell: float) -> np.ndarray:
+    """Each point's plan cell (from (0, 0)) as one int64 that sorts as (column, row)."""
+    i = np.floor(xy[:, 0] / cell).astype(np.int64) + _KEY_OFFSET
+    j = np.floor(xy[:, 1] / cell).astype(np.int64) + _KEY_OFFSET
+    return (i << 32) | j
 
 
 def stray_cells(cells: np.ndarray, counts: np.ndarray, *, gap_cells: int = 4,

@@ -96,9 +96,8 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     centres = np.column_stack([lo[0] + (ci + 0.5) * cell, lo[1] + (cj + 0.5) * cell])
     # the soundings that can be nearest to a candidate cell lie within ``reach`` of one
     wide = grow(occ, r + 1)
-    pi, pj = cell_index(points, lo[0], lo[1], cell)
-    idx = np.flatnonzero((pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny))
-    idx = idx[wide[pj[idx], pi[idx]]]
+    idx = np.concatenate([s + _in_cells(points[s:s + CHUNK], wide, lo, cell)
+                          for s in range(0, len(points), CHUNK)])
     tree = cKDTree(points[idx, :2] - lo, balanced_tree=False, compact_nodes=False)
     # own and bridge are in units of the soundings' typical spacing (median distance to the
     # nearest other sounding), measured around each connected candidate region on its own:
@@ -133,6 +132,19 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
         closed[box] |= done & (comp[box] == c)
     filled = ndimage.binary_fill_holes(closed & reef) & reef
     return filled, nearest, float(lo[0]), float(lo[1])
+
+
+#: Soundings whose raster cells are found at a time (all of 10 M at once took 0.5 GB).
+CHUNK = 1_000_000
+
+
+def _in_cells(points: np.ndarray, mask: np.ndarray, lo: np.ndarray, cell: float) -> np.ndarray:
+    """The rows of ``points`` that fall in a True cell of ``mask`` (rows y, columns x, corner
+    ``lo``)."""
+    ny, nx = mask.shape
+    pi, pj = cell_index(points, lo[0], lo[1], cell)
+    idx = np.flatnonzero((pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny))
+    return idx[mask[pj[idx], pi[idx]]]
 
 
 def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall: float, idx: np.ndarray,
@@ -225,15 +237,20 @@ def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.
     out = np.full(n + 1, cell)
     if len(rows) < 2 or n == 0:
         return out
-    dn, _ = tree.query(points[rows, :2] - lo, k=2)
-    mm = np.minimum(np.round(dn[:, 1] * 1000.0).astype(np.int64), SPACING_BINS - 1)
-    bi, bj = cell_index(points[rows], 0.0, 0.0, SPACING_BLOCK)
-    bi0, bj0 = int(bi.min()), int(bj.min())
-    bi, bj = bi - bi0, bj - bj0
-    nbx, nby = int(bi.max()) + 1, int(bj.max()) + 1
-    flat = ((bi + 1) * (nby + 1) + (bj + 1)) * SPACING_BINS + mm
-    hist = np.bincount(flat, minlength=(nbx + 1) * (nby + 1) * SPACING_BINS).astype(np.int32)
-    hist = hist.reshape(nbx + 1, nby + 1, SPACING_BINS)
+    # the blocks the rows span (cell_index is monotonic: the corners' blocks bound them all)
+    corners = np.array([[points[rows, 0].min(), points[rows, 1].min()],
+                        [points[rows, 0].max(), points[rows, 1].max()]])
+    (bi0, bi1), (bj0, bj1) = (v.tolist() for v in cell_index(corners, 0.0, 0.0, SPACING_BLOCK))
+    nbx, nby = bi1 - bi0 + 1, bj1 - bj0 + 1
+    hist = np.zeros((nbx + 1) * (nby + 1) * SPACING_BINS, np.int64)
+    for s in range(0, len(rows), CHUNK):  # near every sounding of a noisy 10 M field: 0.5 GB at once
+        part = rows[s:s + CHUNK]
+        dn, _ = tree.query(points[part, :2] - lo, k=2)
+        mm = np.minimum(np.round(dn[:, 1] * 1000.0).astype(np.int64), SPACING_BINS - 1)
+        bi, bj = cell_index(points[part], 0.0, 0.0, SPACING_BLOCK)
+        flat = ((bi - bi0 + 1) * (nby + 1) + (bj - bj0 + 1)) * SPACING_BINS + mm
+        hist += np.bincount(flat, minlength=len(hist))
+    hist = hist.astype(np.int32).reshape(nbx + 1, nby + 1, SPACING_BINS)
     table = hist.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)
     ny, nx = comp.shape
     cj, ci = np.nonzero(comp)
@@ -247,11 +264,15 @@ def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.
     a1 = np.clip(gi - bi0 + SPACING_REACH + 1, 0, nbx)
     b0 = np.clip(gj - bj0 - SPACING_REACH, 0, nby)
     b1 = np.clip(gj - bj0 + SPACING_REACH + 1, 0, nby)
-    counts = table[a1, b1] - table[a0, b1] - table[a1, b0] + table[a0, b0]  # (n, bins)
-    total = counts.sum(axis=1)
-    half = np.argmax(counts.cumsum(axis=1) >= (total[:, None] + 1) // 2, axis=1)
-    ok = total >= 2
-    out[1:][ok] = half[ok] / 1000.0
+    # a few hundred regions at a time: the (regions, bins) counts of a noisy 10 M field's
+    # thousands of specks took 0.3 GB at once
+    for s in range(0, n, 256):
+        t = slice(s, s + 256)
+        counts = table[a1[t], b1[t]] - table[a0[t], b1[t]] - table[a1[t], b0[t]] + table[a0[t], b0[t]]
+        total = counts.sum(axis=1)
+        half = np.argmax(counts.cumsum(axis=1) >= (total[:, None] + 1) // 2, axis=1)
+        ok = total >= 2
+        out[1:][t][ok] = half[ok] / 1000.0
     return out
 
 
