@@ -11,7 +11,7 @@ from scipy import ndimage
 
 __all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "stray_soundings", "stray_cells", "cell_groups", "STRAY_SHARE",
-           "BYTES_PER_CELL", "extent_bytes"]
+           "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -278,8 +278,7 @@ def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 
     parts = [np.unique(_cell_key(xy[s:s + STRAY_CHUNK], cell), return_counts=True) for s in spans]
     keys, inverse = np.unique(np.concatenate([k for k, _ in parts]), return_inverse=True)
     counts = np.bincount(inverse.ravel(), weights=np.concatenate([c for _, c in parts])).astype(np.int64)
-    cells = np.column_stack([(keys >> 32) - _KEY_OFFSET, (keys & 0xFFFFFFFF) - _KEY_OFFSET])
-    bad = keys[stray_cells(cells, counts, gap_cells=gap_cells, share=share)]
+    bad = keys[stray_cells(unpack_cells(keys), counts, gap_cells=gap_cells, share=share)]
     out = np.zeros(len(xy), dtype=bool)
     if len(bad):
         for s in spans:
@@ -289,14 +288,28 @@ def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 
 
 #: Soundings :func:`stray_soundings` bins at a time.
 STRAY_CHUNK = 1_000_000
-_KEY_OFFSET = 1 << 31
+
+
+def pack_cells(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Two cell indices as one int64 (each within ±2³⁰), ordered by ``i`` then ``j``.
+
+    Examples
+    --------
+    >>> unpack_cells(pack_cells(np.array([-3, 2]), np.array([7, -1]))).tolist()
+    [[-3, 7], [2, -1]]
+    """
+    return (np.asarray(i, np.int64) + (1 << 30)) * (1 << 31) + (np.asarray(j, np.int64) + (1 << 30))
+
+
+def unpack_cells(key: np.ndarray) -> np.ndarray:
+    """The (M, 2) cell indices of :func:`pack_cells` keys."""
+    key = np.asarray(key, np.int64)
+    return np.column_stack([key // (1 << 31) - (1 << 30), key % (1 << 31) - (1 << 30)])
 
 
 def _cell_key(xy: np.ndarray, cell: float) -> np.ndarray:
-    """Each point's plan cell (from (0, 0)) as one int64 that sorts as (column, row)."""
-    i = np.floor(xy[:, 0] / cell).astype(np.int64) + _KEY_OFFSET
-    j = np.floor(xy[:, 1] / cell).astype(np.int64) + _KEY_OFFSET
-    return (i << 32) | j
+    """Each point's plan cell (from (0, 0)) as one :func:`pack_cells` key."""
+    return pack_cells(np.floor(xy[:, 0] / cell), np.floor(xy[:, 1] / cell))
 
 
 def stray_cells(cells: np.ndarray, counts: np.ndarray, *, gap_cells: int = 4,

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from ..grid import pack_cells, unpack_cells
 from ..io import PointCloud, format_from_path, iter_las, read
 
 __all__ = ["TilePlan", "FileBins", "BinnedChunk", "bin_file", "block_counts", "choose_plan", "tile_slices",
@@ -211,8 +212,8 @@ def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdi
         hi = np.maximum(hi, xy.max(axis=0))
         table = _table(cloud, file_index, fields)
         lines.append(np.unique(table["file_line"]))
-        cells.append(_pack(np.floor(xy[:, 0] / STRAY_CELL), np.floor(xy[:, 1] / STRAY_CELL)))
-        key = _pack(np.floor(xy[:, 0] / block), np.floor(xy[:, 1] / block))
+        cells.append(pack_cells(np.floor(xy[:, 0] / STRAY_CELL), np.floor(xy[:, 1] / STRAY_CELL)))
+        key = pack_cells(np.floor(xy[:, 0] / block), np.floor(xy[:, 1] / block))
         order = np.argsort(key, kind="stable")
         key = key[order]
         starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
@@ -222,20 +223,9 @@ def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdi
     if n == 0:
         raise InputError(f"{p}: the file holds no points")
     u, k = np.unique(np.concatenate(cells), return_counts=True)
-    return FileBins(file_index, str(p), n, tuple(chunks), _unpack(u), k.astype(np.int64),
+    return FileBins(file_index, str(p), n, tuple(chunks), unpack_cells(u), k.astype(np.int64),
                     np.unique(np.concatenate(lines)), names or (), crs,
                     (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])), meta)
-
-
-def _pack(i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Two cell indices as one int64 (each within ±2³⁰), ordered by ``i`` then ``j``."""
-    return (np.asarray(i, np.int64) + (1 << 30)) * (1 << 31) + (np.asarray(j, np.int64) + (1 << 30))
-
-
-def _unpack(key: np.ndarray) -> np.ndarray:
-    """The (M, 2) cell indices of packed keys."""
-    key = np.asarray(key, np.int64)
-    return np.column_stack([key // (1 << 31) - (1 << 30), key % (1 << 31) - (1 << 30)])
 
 
 def _table(cloud: PointCloud, file_index: int, keep: Sequence[str] | None = None) -> np.ndarray:
@@ -261,7 +251,7 @@ def block_counts(bins: Sequence[FileBins]) -> tuple[np.ndarray, np.ndarray]:
     keys = np.concatenate([c.keys for b in bins for c in b.chunks])
     counts = np.concatenate([np.diff(c.starts) for b in bins for c in b.chunks])
     u, inv = np.unique(keys, return_inverse=True)
-    return _unpack(u), np.bincount(inv.ravel(), weights=counts).astype(np.int64)
+    return unpack_cells(u), np.bincount(inv.ravel(), weights=counts).astype(np.int64)
 
 
 def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray, area_weight: float = 0.0
@@ -270,7 +260,7 @@ def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray, area_wei
     their own; plus ``area_weight`` soundings' worth per m² of the rectangle its read
     blocks span (its seabed grids span that, however few soundings it holds)."""
     ti, tj, rows = plan.tiles_of_blocks(blocks[:, 0], blocks[:, 1])
-    key = _pack(ti, tj)
+    key = pack_cells(ti, tj)
     u, inv = np.unique(key, return_inverse=True)
     inv = inv.ravel()
     reads = np.bincount(inv, weights=counts[rows])
@@ -284,7 +274,7 @@ def _tile_loads(plan: TilePlan, blocks: np.ndarray, counts: np.ndarray, area_wei
             np.maximum.at(hi, inv, b)
             span.append(hi - lo + 1)
         reads = reads + area_weight * (span[0] * span[1]).astype(np.float64) * plan.block**2
-    homes = _pack((blocks[:, 0] - plan.origin[0]) // plan.blocks,
+    homes = pack_cells((blocks[:, 0] - plan.origin[0]) // plan.blocks,
                   (blocks[:, 1] - plan.origin[1]) // plan.blocks)
     owns = np.bincount(np.searchsorted(u, homes), weights=counts, minlength=len(u))
     return reads[owns > 0]
@@ -353,11 +343,11 @@ def tile_slices(plan: TilePlan, bins: Sequence[FileBins]
     owns: dict[tuple[int, int], int] = {}
     for b in bins:
         for c in b.chunks:
-            ij = _unpack(c.keys)
+            ij = unpack_cells(c.keys)
             sizes = np.diff(c.starts)
-            hk, hn = np.unique(_pack((ij[:, 0] - plan.origin[0]) // plan.blocks,
+            hk, hn = np.unique(pack_cells((ij[:, 0] - plan.origin[0]) // plan.blocks,
                                      (ij[:, 1] - plan.origin[1]) // plan.blocks), return_inverse=True)
-            for key, m in zip(_unpack(hk).tolist(), np.bincount(hn.ravel(), weights=sizes).tolist(),
+            for key, m in zip(unpack_cells(hk).tolist(), np.bincount(hn.ravel(), weights=sizes).tolist(),
                               strict=True):
                 owns[(key[0], key[1])] = owns.get((key[0], key[1]), 0) + int(m)
             ti, tj, rows = plan.tiles_of_blocks(ij[:, 0], ij[:, 1])
@@ -441,8 +431,8 @@ def load_tile(slices: Sequence[tuple[str, Sequence[tuple[int, int]]]], *,
     cols["line"] = line
     if stray is not None and len(stray):
         stray = np.asarray(stray, np.int64)
-        bad = np.isin(_pack(np.floor(xyz[:, 0] / STRAY_CELL), np.floor(xyz[:, 1] / STRAY_CELL)),
-                      _pack(stray[:, 0], stray[:, 1]))
+        bad = np.isin(pack_cells(np.floor(xyz[:, 0] / STRAY_CELL), np.floor(xyz[:, 1] / STRAY_CELL)),
+                      pack_cells(stray[:, 0], stray[:, 1]))
         if bad.any():
             xyz = xyz[~bad]
             cols = {k: v[~bad] for k, v in cols.items()}
