@@ -88,15 +88,25 @@ def test_columns_map_skips_and_reorders(tmp_path):
 
 def test_parallel_chunks_give_the_same_answer_and_locate_errors(tmp_path, monkeypatch):
     rng = np.random.default_rng(1)
-    table = rng.uniform(-20, 20, (3000, 3)).round(3)
+    table = rng.uniform(-20, 20, (3000, 5)).round(3)
     p = tmp_path / "big.xyz"
-    np.savetxt(p, table, fmt="%.3f")
-    monkeypatch.setattr(mascii, "PARALLEL_BYTES", 1000)
-    np.testing.assert_allclose(read(p).xyz, table)
+    np.savetxt(p, table, fmt="%.3f", header="ping x y z intensity", comments="")
+    monkeypatch.setattr(mascii, "CHUNK_BYTES", 1000)  # about 100 chunks, in worker processes
+    seen: list[float] = []
+    cloud = read(p, progress=seen.append)
+    np.testing.assert_allclose(cloud.xyz, table[:, 1:4])
+    np.testing.assert_allclose(cloud.fields["ping"], table[:, 0])
+    np.testing.assert_allclose(cloud.fields["intensity"], table[:, 4])
+    assert len(seen) > 50 and seen == sorted(seen) and seen[-1] == 1.0
     lines = p.read_text().splitlines()
-    lines[2500] = "1.0 abc 2.0"
+    good = list(lines)
+    lines[2500] = "1.0 2.0 abc 2.0 3.0"
     p.write_text("\n".join(lines) + "\n")
-    with pytest.raises(InputError, match=r"line 2501, column 2: 'abc' is not a number"):
+    with pytest.raises(InputError, match=r"line 2501, column 3: 'abc' is not a number"):
+        read(p)
+    good[2700] = "1.0 2.0 3.0 nan 3.0"  # the row count of the chunks before it locates it
+    p.write_text("\n".join(good) + "\n")
+    with pytest.raises(InputError, match=r"line 2701, column 4: 'nan' is not a finite number"):
         read(p)
 
 

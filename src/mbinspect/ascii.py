@@ -7,7 +7,9 @@ first line; decimal commas (``554845,028;4179000,717;-10,983``, detected, or
 ``decimal=","``); text columns (times, dates, DMS positions) anywhere, which are never parsed
 when skipped (``-`` in ``columns``) and, for a column named ``time`` (ISO 8601 or
 MB-System's ``YYYY/MM/DD/HH/MM/SS.ssssss``), kept as seconds since 1970. Large files are
-parsed in parallel worker processes that die with their parent.
+parsed in chunks of :data:`CHUNK_BYTES` by worker processes that die with their parent; the
+chunks' rows are copied into the final arrays as they come, so a read holds about the
+parsed values once (plus a chunk per worker), never the whole text.
 
 What the columns hold comes from ``columns``, else the header, else the column count (3: x
 y z; 4: x y z intensity). A header naming latitude and longitude says the file is
@@ -55,8 +57,10 @@ ELEVATION_NAMES = {"elevation", "height", "h"}
 DELIMITERS: dict[str, str | None] = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "space": None,
                                      " ": None, "whitespace": None}
 
-# Files above this size are parsed in parallel chunks (one per core).
-PARALLEL_BYTES = 16 * 2**20
+#: Files are parsed this many bytes of text at a time; a file of more than one chunk is
+#: parsed by worker processes (one per core, at most :data:`MAX_WORKERS`).
+CHUNK_BYTES = 8 * 2**20
+MAX_WORKERS = 8
 _DECIMAL_COMMA = re.compile(r"^-?\d+,\d+$")
 _COMMENT_LINES = re.compile(rb"(?m)^[ \t]*#[^\n]*\n?")
 _UNITS = re.compile(r"\s*[\(\[].*?[\)\]]\s*")
@@ -344,15 +348,17 @@ def _quiet_empty() -> Iterator[None]:
         yield
 
 
-def _chunk_bounds(path: Path, start: int, parts: int) -> list[tuple[int, int]]:
-    size = path.stat().st_size
+def _chunk_bounds(path: Path, start: int, size: int) -> list[tuple[int, int]]:
+    """Byte ranges of about ``size`` each from ``start`` to the end, cut at line ends."""
+    total = path.stat().st_size
+    parts = max(1, -(-(total - start) // size))
     cuts = [start]
     with open(path, "rb") as fh:
         for k in range(1, parts):
-            fh.seek(start + (size - start) * k // parts)
+            fh.seek(start + (total - start) * k // parts)
             fh.readline()
             cuts.append(max(fh.tell(), cuts[-1]))
-    cuts.append(size)
+    cuts.append(total)
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
 
 
@@ -418,17 +424,22 @@ def _worker_init() -> None:
         pass
 
 
-def _parse_parallel(chunks: list[tuple[str, int, int, AsciiTable]]) -> list[np.ndarray | str]:
-    """Parse chunks in worker processes; on any error or interrupt the workers are killed
-    at once (no worker outlives the read, none prints a traceback)."""
+@contextmanager
+def _parsed(chunks: list[tuple[str, int, int, AsciiTable]]) -> Iterator[Iterator[np.ndarray | str]]:
+    """Each chunk parsed, in order: in worker processes when there are several chunks and
+    cores. On leaving (an error, an interrupt or the end) the workers are killed at once:
+    no worker outlives the read, none prints a traceback."""
+    workers = min(os.cpu_count() or 1, MAX_WORKERS, len(chunks))
+    if workers < 2:
+        yield (_parse_chunk(c) for c in chunks)
+        return
     import multiprocessing as mp
 
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    pool = ctx.Pool(len(chunks), initializer=_worker_init)
+    pool = ctx.Pool(workers, initializer=_worker_init)
     try:
-        results = pool.map(_parse_chunk, chunks, chunksize=1)
+        yield pool.imap(_parse_chunk, chunks, chunksize=1)
         pool.close()
-        return results
     finally:
         pool.terminate()
         pool.join()
@@ -453,7 +464,8 @@ def _lf_lines(path: Path) -> Iterator[Path]:
 
 
 def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimiter: str | None = None,
-               decimal: str | None = None) -> tuple[np.ndarray, dict[str, np.ndarray], AsciiTable]:
+               decimal: str | None = None, progress: Callable[[float], None] | None = None,
+               ) -> tuple[np.ndarray, dict[str, np.ndarray], AsciiTable]:
     """Read an ASCII point file.
 
     Parameters
@@ -465,6 +477,8 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
         One of :data:`DELIMITERS`' keys; sniffed when None.
     decimal : {".", ","}, optional
         The decimal mark; sniffed when None.
+    progress : callable, optional
+        Called with the fraction of the file parsed, after each chunk.
 
     Returns
     -------
@@ -486,21 +500,58 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
         if table.decimal == "," and table.delimiter == ",":
             raise InputError(f"{path}: decimal commas in comma-delimited columns cannot be told apart; "
                              "expected another `delimiter`")
-        size = lf.stat().st_size
-        parts = min(os.cpu_count() or 1, 8) if size - table.data_start > PARALLEL_BYTES else 1
-        chunks = [(str(lf), a, b, table) for a, b in _chunk_bounds(lf, table.data_start, parts)]
-        results = _parse_parallel(chunks) if len(chunks) > 1 else [_parse_chunk(c) for c in chunks]
-        if any(isinstance(r, str) for r in results):
-            raise InputError(_locate_error(lf, table).replace(str(lf), str(path)))
-        data = np.concatenate([r for r in results if not isinstance(r, str)], axis=0)
-        bad = ~np.isfinite(data).all(axis=1)
-        if bad.any():
-            where = _locate_nonfinite(lf, table, int(np.flatnonzero(bad)[0]))
-            raise InputError(where.replace(str(lf), str(path)))
-    used = [n for n in table.names if n is not None]
-    cols = {name: data[:, i] for i, name in enumerate(used)}
-    if table.count is not None and table.count != len(data):
-        raise InputError(f"{path}, line 1: the file says {table.count} points but holds {len(data)}")
-    x, y = ("lon", "lat") if table.geographic else ("x", "y")
-    xyz = np.column_stack([cols.pop(x), cols.pop(y), cols.pop("z")])
+        chunks = [(str(lf), a, b, table) for a, b in _chunk_bounds(lf, table.data_start, CHUNK_BYTES)]
+        used = [n for n in table.names if n is not None]
+        out = _Columns(used, _line_count(lf, table.data_start), table.geographic)
+        with _parsed(chunks) as results:
+            for k, r in enumerate(results):
+                if isinstance(r, str):
+                    raise InputError(_locate_error(lf, table).replace(str(lf), str(path)))
+                bad = ~np.isfinite(r).all(axis=1)
+                if bad.any():
+                    where = _locate_nonfinite(lf, table, out.rows + int(np.flatnonzero(bad)[0]))
+                    raise InputError(where.replace(str(lf), str(path)))
+                out.add(r)
+                if progress is not None:
+                    progress((k + 1) / len(chunks))
+    if table.count is not None and table.count != out.rows:
+        raise InputError(f"{path}, line 1: the file says {table.count} points but holds {out.rows}")
+    xyz, cols = out.arrays()
     return xyz, cols, table
+
+
+def _line_count(path: Path, start: int) -> int:
+    """The line ends after ``start`` plus one: at least the data rows (comments and blank
+    lines count too), so the columns can be allocated before parsing."""
+    n = 1
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        for block in iter(lambda: fh.read(1 << 23), b""):
+            n += block.count(b"\n")
+    return n
+
+
+class _Columns:
+    """x y z and one array per other field, allocated for at most ``capacity`` rows (pages
+    never written are never resident) and filled chunk by chunk as the parsers return
+    them, so that the values are held once, not once in chunks and again in the result."""
+
+    def __init__(self, used: list[str], capacity: int, geographic: bool) -> None:
+        x, y = ("lon", "lat") if geographic else ("x", "y")
+        at = {name: i for i, name in enumerate(used)}
+        self._xyz_at = [at[x], at[y], at["z"]]
+        self._field_at = {name: i for name, i in at.items() if name not in (x, y, "z")}
+        self.xyz = np.empty((capacity, 3))
+        self.fields = {name: np.empty(capacity) for name in self._field_at}
+        self.rows = 0
+
+    def add(self, part: np.ndarray) -> None:
+        start, stop = self.rows, self.rows + len(part)
+        self.xyz[start:stop] = part[:, self._xyz_at]
+        for name, col in self._field_at.items():
+            self.fields[name][start:stop] = part[:, col]
+        self.rows = stop
+
+    def arrays(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        n = self.rows
+        return self.xyz[:n], {name: col[:n] for name, col in self.fields.items()}

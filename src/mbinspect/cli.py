@@ -85,8 +85,8 @@ class Reporter:
         tty = hasattr(self.stream, "isatty") and self.stream.isatty()
 
         def update(fraction: float) -> None:
-            if self.verbosity < 0 or time.perf_counter() - start < 1.5 and fraction < 1:
-                return
+            if self.verbosity < 0 or time.perf_counter() - start < 1.5 and (fraction < 1 or self._last < 0):
+                return  # quick work shows nothing, not even its end
             pct = int(100 * fraction)
             step = 1 if tty else 25
             if pct // step == self._last // step and fraction < 1:
@@ -152,7 +152,7 @@ def _read_input(args: argparse.Namespace, rep: Reporter) -> Any:
     from .survey.inputs import read_survey
 
     t = time.perf_counter()
-    cloud = read_survey(args.files, **read_options(args))
+    cloud = read_survey(args.files, progress=rep.progress("reading"), **read_options(args))
     rep.debug(f"read {len(cloud):,} points from {len(args.files)} file(s) in {time.perf_counter() - t:.2f} s")
     return cloud
 
@@ -449,7 +449,7 @@ def _cmd_piles(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.design]) as tmp:
         t = time.perf_counter()
         run = run_pipeline("piles", args, args.files, options, survey, verbosity=rep.verbosity,
-                           extra={"design": design}, staging=tmp)
+                           extra={"design": design}, staging=tmp, stages=rep.progress)
         rep.debug(f"located {len(run.result.piles)} piles in {time.perf_counter() - t:.2f} s")
         result = _provenance(run.result, args, argv, design=args.design)
         return _finish_piles(result, run.points, tmp, out, args, rep)
@@ -516,7 +516,7 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
                     inputs=[*map(str, args.files), args.reference, *design_files]) as tmp:
         t = time.perf_counter()
         run = run_pipeline("reefs", args, args.files, options, survey, verbosity=rep.verbosity,
-                           extra={"reference": reference}, staging=tmp)
+                           extra={"reference": reference}, staging=tmp, stages=rep.progress)
         rep.debug(f"extracted {len(run.result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
         result = _provenance(run.result, args, argv, reference=args.reference)
         write_reef_outputs(result, run.points, tmp, figures=not args.no_figures)

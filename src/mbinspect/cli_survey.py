@@ -86,9 +86,11 @@ def task_progress(label: str, verbosity: int, stream: Any = None
 
 
 def run_pipeline(kind: str, args: argparse.Namespace, files: Sequence[Path], options: Any, survey: Any, *,
-                 verbosity: int, extra: dict[str, Any], staging: Path) -> Any:
-    """:func:`mbinspect.survey.run.run_survey` with the command line's progress; tile parts
-    go into the output's staging folder, so that an interrupted run leaves none behind."""
+                 verbosity: int, extra: dict[str, Any], staging: Path,
+                 stages: Callable[[str], Callable[[float], None]] | None = None) -> Any:
+    """:func:`mbinspect.survey.run.run_survey` with the command line's progress (``stages``
+    makes the percentage callback of each step of a run in one piece); tile parts go into
+    the output's staging folder, so that an interrupted run leaves none behind."""
     from .survey.run import run_survey
 
     def note(text: str) -> None:
@@ -97,7 +99,8 @@ def run_pipeline(kind: str, args: argparse.Namespace, files: Sequence[Path], opt
 
     return run_survey(kind, files, options, survey, read_options=read_options(args),
                       extra=extra, workdir=staging, note=note,
-                      progress=task_progress(f"{kind}: files, then tiles", verbosity))
+                      progress=task_progress(f"{kind}: files, then tiles", verbosity),
+                      stage_progress=stages)
 
 
 def file_records(files: Sequence[Path]) -> list[dict[str, Any]]:

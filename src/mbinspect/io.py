@@ -246,6 +246,7 @@ def read(
     keep_rejected: bool = False,
     decimal: str | None = None,
     z_up: bool = False,
+    progress: Callable[[float], None] | None = None,
 ) -> PointCloud:
     """Read a point cloud file.
 
@@ -279,6 +280,8 @@ def read(
         file whose z is mostly positive under a header that does not say which (``z``, or
         none) is read as given but marked doubtful (``meta["z_doubt"]``); the pipelines
         refuse such a cloud.
+    progress : callable, optional
+        ASCII only: called with the fraction of the file parsed.
 
     Returns
     -------
@@ -310,7 +313,7 @@ def read(
             return to_cloud(read_sonar(p, fmt), crs=crs, keep_rejected=keep_rejected)
         if fmt == "xyz":
             cloud = _read_ascii(p, columns=columns, delimiter=delimiter, decimal=decimal,
-                                depth_positive=depth_positive, z_up=z_up, crs=crs)
+                                depth_positive=depth_positive, z_up=z_up, crs=crs, progress=progress)
             crs = None if cloud.meta.get("geographic") else crs
         elif fmt == "las":
             cloud = _read_las(p)
@@ -404,13 +407,15 @@ def _looks_geographic(xyz: np.ndarray) -> bool:
 
 
 def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str | None, decimal: str | None,
-                depth_positive: bool, z_up: bool, crs: str | None) -> PointCloud:
+                depth_positive: bool, z_up: bool, crs: str | None,
+                progress: Callable[[float], None] | None = None) -> PointCloud:
     """An ASCII file as a cloud: geographic files projected, doubts about z said."""
     import warnings
 
     if decimal not in (None, ".", ","):
         raise ParameterError(f"decimal: {decimal!r}; expected '.' or ','", option="decimal")
-    xyz, fields, table = read_ascii(p, columns=columns, delimiter=delimiter, decimal=decimal)
+    xyz, fields, table = read_ascii(p, columns=columns, delimiter=delimiter, decimal=decimal,
+                                    progress=progress)
     meta: dict[str, Any] = {"format": "xyz", "z_name": table.z_name}
     geographic = table.geographic or (table.header is None and columns is None and _looks_geographic(xyz))
     if table.z_name in DEPTH_NAMES and not (depth_positive or z_up):

@@ -111,7 +111,7 @@ def read_survey(paths: Sequence[str | os.PathLike[str]], *, progress: Callable[[
     paths : sequence of path-like
         The files (:func:`expand_inputs`).
     progress : callable, optional
-        Called with the fraction of files read.
+        Called with the fraction read (of the files, and within a large ASCII file).
     **read_options
         Passed to :func:`mbinspect.io.read` for every file.
 
@@ -126,13 +126,14 @@ def read_survey(paths: Sequence[str | os.PathLike[str]], *, progress: Callable[[
     """
     files = [Path(p) for p in paths]
     if len(files) == 1:
-        return read(files[0], **read_options)
+        return read(files[0], progress=progress, **read_options)
     clouds: list[PointCloud] = []
     crs = read_options.pop("crs", None)
     first_crs: str | None = None
     for k, f in enumerate(files):
         sonar = format_from_path(f, read_options.get("format")) in SONAR_FORMATS
-        c = read(f, crs=crs if crs is not None or not sonar else first_crs, **read_options)
+        within = None if progress is None else (lambda f, k=k: progress((k + f) / len(files)))
+        c = read(f, crs=crs if crs is not None or not sonar else first_crs, progress=within, **read_options)
         if k == 0:
             first_crs = c.crs
         elif not same_crs(c.crs, first_crs):

@@ -107,8 +107,8 @@ def estimate_soundings(paths: Sequence[Path], fmt: str | None = None) -> int:
 def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any, survey: SurveyOptions, *,
                read_options: Mapping[str, Any] | None = None, extra: Mapping[str, Any] | None = None,
                workdir: str | os.PathLike[str] | None = None, progress: Progress | None = None,
-               note: Callable[[str], None] | None = None, tile_function: Callable[..., Any] | None = None
-               ) -> SurveyRun:
+               note: Callable[[str], None] | None = None, tile_function: Callable[..., Any] | None = None,
+               stage_progress: Callable[[str], Callable[[float], None]] | None = None) -> SurveyRun:
     """Run the ``"reefs"`` or ``"piles"`` pipeline over a survey of one or many files.
 
     Parameters
@@ -130,6 +130,9 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
         Told what the run does (a line of text).
     tile_function : callable, optional
         Runs one tile (default: the pipeline's own; tests use it to break a worker).
+    stage_progress : callable, optional
+        A survey run in one piece: given a label (``"reading"``, then the pipeline's name),
+        returns the callback that is told the fraction of that step done.
 
     Returns
     -------
@@ -143,7 +146,10 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
     limit = (survey.memory_limit * 1e9) if survey.memory_limit else machine_memory() / 2
     tiled = survey.tiled or n_est * BYTES_PER_SOUNDING > limit or survey.scheduler is not None
     if not tiled:
-        cloud = read_survey(files, **ropts)
+        def stage(label: str) -> Callable[[float], None] | None:
+            return None if stage_progress is None else stage_progress(label)
+
+        cloud = read_survey(files, progress=stage("reading"), **ropts)
         grid = extent_bytes(cloud.xyz, options.seabed_cell)
         if grid > max(len(cloud) * BYTES_PER_SOUNDING, SPARSE_BYTES):
             tiled = True
@@ -151,7 +157,7 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
                 f"(`seabed_cell` {options.seabed_cell:g} m) for {len(cloud):,} soundings: run in tiles "
                 "that follow the soundings")
         else:
-            result = _whole(kind, cloud, options, extra)
+            result = _whole(kind, cloud, options, extra, stage(kind))
             return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
     buffer = _buffer(kind, options)
     block = TilePlan.block_for(buffer, survey.tile_size)
@@ -207,14 +213,15 @@ def _maybe_client(use: bool, survey: SurveyOptions) -> Any:
     return dask_client(scheduler=survey.scheduler, workers=survey.workers)
 
 
-def _whole(kind: str, cloud: PointCloud, options: Any, extra: Mapping[str, Any]) -> Any:
+def _whole(kind: str, cloud: PointCloud, options: Any, extra: Mapping[str, Any],
+           progress: Callable[[float], None] | None = None) -> Any:
     if kind == "reefs":
         from ..reefs import extract_reefs
 
-        return extract_reefs(cloud, options, reference=extra.get("reference"))
+        return extract_reefs(cloud, options, reference=extra.get("reference"), progress=progress)
     from ..piles import locate_piles
 
-    return locate_piles(cloud, options, design=extra.get("design"))
+    return locate_piles(cloud, options, design=extra.get("design"), progress=progress)
 
 
 def _buffer(kind: str, options: Any) -> float:
