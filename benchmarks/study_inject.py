@@ -1,14 +1,17 @@
 """Piles and reefs injected into the real files of ``../shared/real``: what their lines can measure.
 
-Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs]``. For each
-real file with at least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a jacket of four
-piles (radius 0.5 m, sides 6 m or half the seabed's width, tops 2 m above the seabed) is
+Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs] [--prior-offset M]``.
+For each real file with at least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a
+jacket of four piles (radius 0.5 m, sides 6 m or half the seabed's width, tops 2 m above the seabed) is
 injected at seeded placements (shift within 1.5 m of the centre, any turn) with
 ``mbinspect.inject``: each sounding whose beam meets a pile is moved onto it along its own
 beam, carrying its own seabed residual. ``locate_piles`` (count 4, radius 0.5) then measures
-them. Per file: pings, soundings per pile, piles found and flagged, spacing error RMS and
-max over the spacings of unflagged piles and over all, the shares within the reported 2σ and 3σ,
-runs stopped and placements over holes. The public files are short (4–67 pings), so few
+them (``--prior-offset`` gives it a radius prior that far off). A file whose pings cover a strip
+at least 1.5 m wide and 5 m long at least 20 times (``ets_kmall_eg``: 25 pings over 2.2 m) gets
+a row of two piles 1.2 m proud along the strip instead (0.6 of its length apart, at most 6 m). Per file:
+pings, soundings per pile, piles found and flagged, spacing error RMS and max over the
+spacings of unflagged piles and over all, the shares within the reported 2σ and 3σ, runs
+stopped and placements over holes. The public files are short (4–67 pings), so few
 soundings reach a pile: the figure that matters is whether what cannot be measured is flagged.
 
 Reefs: four built-in designs (cross1, cross2, hollow and triangle, the last two at 0.7 of
@@ -37,6 +40,40 @@ from mbinspect.piles import locate_piles  # noqa: E402
 from mbinspect.reefs import extract_reefs  # noqa: E402
 
 SIDE, RADIUS, HEIGHT = 6.0, 0.5, 2.0  # side: at most
+#: A row's piles stand 1.2 m proud: in 3.5 m of water a 50° swath sees the top of a 2 m pile
+#: only in a sliver (its beams meet the side first), as a real sonar would.
+ROW_HEIGHT = 1.6
+
+
+def _row(cloud: PointCloud, rng: np.random.Generator) -> tuple[list[InjectedPile], float]:
+    """Two piles along a narrow strip's long axis (a pair of a jacket's piles), shifted by up
+    to 0.3 m either way, and their spacing: for a file whose pings cover a strip too narrow
+    for a square but dense along it."""
+    xy = cloud.xyz[:, :2]
+    centre = np.median(xy, axis=0)
+    _, vec = np.linalg.eigh(np.cov((xy - centre).T))
+    u, v = vec[:, 1], vec[:, 0]  # long and short axes
+    lo, hi = np.percentile((xy - centre) @ u, [5, 95])
+    spacing = min(SIDE, 0.6 * float(hi - lo))
+    mid = centre + (lo + hi) / 2 * u + rng.uniform(-0.3, 0.3) * u + rng.uniform(-0.3, 0.3) * v
+    return [InjectedPile(i + 1, *(mid + sgn * spacing / 2 * u), RADIUS, height=ROW_HEIGHT)
+            for i, sgn in enumerate((-1.0, 1.0))], spacing
+
+
+def _layout(cloud: PointCloud) -> str | None:
+    """"square" where the seabed spans 8 m both ways, "row" where a strip at least 1.5 m wide
+    and 5 m long is pinged at least 20 times, else None (5th to 95th percentile, under 60 m)."""
+    if -np.median(cloud.xyz[:, 2]) >= 60:
+        return None
+    xy = cloud.xyz[:, :2] - np.median(cloud.xyz[:, :2], axis=0)
+    lo, hi = np.percentile(xy, [5, 95], axis=0)
+    if (hi - lo).min() >= 8.0:
+        return "square"
+    _, vec = np.linalg.eigh(np.cov(xy.T))
+    ext = np.ptp(np.percentile(xy @ vec, [5, 95], axis=0), axis=0)
+    if ext.min() >= 1.5 and ext.max() >= 5.0 and len(np.unique(cloud.fields["ping"])) >= 20:
+        return "row"
+    return None
 
 
 def _jacket(cx: float, cy: float, side: float, rng: np.random.Generator) -> list[InjectedPile]:
@@ -97,12 +134,13 @@ def _reef_row(name: str, cloud: PointCloud, side: float, placements: int) -> lis
             f"{100 * np.max(np.abs(dh)):.1f}" if dh else "-", f"{stopped}", f"{unplaced}"]
 
 
-def _files() -> list[tuple[str, PointCloud]]:
+def _files() -> list[tuple[str, PointCloud, str]]:
+    """The real files the objects can go into, with the layout of their piles."""
     out = []
     for name, cloud in real_clouds():
-        lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
-        if (hi - lo).min() >= 8.0 and -np.median(cloud.xyz[:, 2]) < 60:
-            out.append((name, cloud))
+        layout = _layout(cloud)
+        if layout is not None:
+            out.append((name, cloud, layout))
     return out
 
 
@@ -110,11 +148,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--placements", type=int, default=5)
     ap.add_argument("--objects", default="piles,reefs", help="piles, reefs or both")
+    ap.add_argument("--prior-offset", type=float, default=0.0,
+                    help="the radius prior given to locate_piles minus the injected radius (m)")
     args = ap.parse_args()
     files = _files()
     if "reefs" in args.objects:
         reef_rows = []
-        for name, cloud in files:
+        for name, cloud, layout in files:
+            if layout != "square":
+                continue
             lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
             reef_rows.append(_reef_row(name, cloud, min(6.0, float((hi - lo).min()) / 2), args.placements))
         print(table(["file", "depth m", "side m", "soundings per reef (median)", "reefs found", "false reefs",
@@ -124,14 +166,17 @@ def main() -> None:
     if "piles" not in args.objects:
         return
     rows, reasons = [], set()
-    for name, cloud in files:
+    for name, cloud, layout in files:
         cx, cy = np.median(cloud.xyz[:, :2], axis=0)
         lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
         side = min(SIDE, float((hi - lo).min()) / 2)
         hits, found, flagged, aborted, unplaced = [], 0, 0, 0, 0
         err_ok, err_all, within, within3 = [], [], [], []
         for k in range(args.placements):
-            piles = _jacket(cx, cy, side, np.random.default_rng(k))
+            if layout == "row":
+                piles, side = _row(cloud, np.random.default_rng(k))
+            else:
+                piles = _jacket(cx, cy, side, np.random.default_rng(k))
             try:
                 inj = inject(cloud.xyz, cloud.fields, piles=piles)
             except MBInspectError:  # a pile over a hole in the coverage
@@ -140,7 +185,8 @@ def main() -> None:
             hits += list(inj.truth["counts"]["per_pile"].values())
             truth = {p["id"]: p for p in inj.truth["piles"]}
             try:
-                res = locate_piles(PointCloud(inj.xyz, dict(cloud.fields)), count=4, radius=RADIUS, seed=k)
+                res = locate_piles(PointCloud(inj.xyz, dict(cloud.fields)), count=len(piles),
+                                   radius=RADIUS + args.prior_offset, seed=k)
             except MBInspectError as exc:
                 aborted += 1
                 reasons.add(str(exc).split(": ", 1)[-1][:70])
@@ -165,10 +211,11 @@ def main() -> None:
         def mx(v: list[float]) -> str:
             return f"{100 * np.max(np.abs(v)):.1f}" if v else "-"
 
-        n = 4 * (args.placements - unplaced)
+        n = len(piles) * (args.placements - unplaced)
         per_pile = f"{int(np.median(hits))}" if hits else "-"
         pings = len(np.unique(cloud.fields["ping"]))
-        rows.append([name[:30], f"{-np.median(cloud.xyz[:, 2]):.0f}", f"{pings}", f"{side:.1f}", per_pile,
+        rows.append([name[:30] + (" (row of 2)" if layout == "row" else ""),
+                     f"{-np.median(cloud.xyz[:, 2]):.0f}", f"{pings}", f"{side:.1f}", per_pile,
                      f"{found}/{n}", f"{flagged}", f"{len(err_ok)}", rms(err_ok), mx(err_ok),
                      f"{len(err_all)}", rms(err_all), mx(err_all),
                      f"{100 * np.mean(within):.0f} %" if within else "-",

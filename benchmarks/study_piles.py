@@ -31,6 +31,8 @@ CONFIGS: dict[str, tuple[dict, dict]] = {
     "noise-x2": ({"noise_scale": 2.0}, {}),
     "radius+2cm": ({}, {"radius": 0.77}),
     "radius+5cm": ({}, {"radius": 0.80}),
+    # a prior 5 cm off where one side is never scanned: few piles can show their own radius
+    "one-side+radius+5cm": ({"lines": "west,south,tops"}, {"radius": 0.80}),
     # three jackets of 0.6 m piles (vertical, battered 1:6 and 1:4), no count given: the
     # jackets are found from the spacing and the spacings taken within each
     "wharf": ({"preset": "wharf"}, {"radius": 0.6, "count": None}),

@@ -277,7 +277,10 @@ def test_demo_end_to_end_with_the_installed_command(tmp_path):
         if s["verdict"] == "fail":
             assert abs(true_dev) > 0.05, s
     undecided = [s for s in d["spacings"] if s["verdict"] == "undecided"]
-    assert len(undecided) == 3 and sum(abs(s["deviation"]) > 0.05 for s in undecided) == 2
+    # the two sides truly over 5 cm are among them (measured within 3 mm of the truth, one
+    # may read a hair under 5 cm: the interval, not the reading, decides)
+    assert len(undecided) == 3
+    assert sum(abs(true_spacings[s["a"], s["b"]] - s["design"]) > 0.05 for s in undecided) == 2
     assert all(abs(s["deviation"]) - 1.96 * s["sigma"] <= 0.05 < abs(s["deviation"]) + 1.96 * s["sigma"]
                for s in undecided)
     # the three spacings, and the frame: its largest miss (63 mm) is over the tolerance by less

@@ -177,3 +177,17 @@ def test_inject_into_an_export_without_pings_estimates_them():
     bare = inject(cloud.xyz, {}, piles=_piles(cloud))
     assert bare.truth["warnings"] and "taken from the soundings' order" in bare.truth["warnings"][0]
     assert min(bare.truth["counts"]["per_pile"].values()) > 50
+
+
+def test_extra_detections_stay_where_they_are():
+    """KMALL's extra detections are targets in the water column, not bottom detections: a
+    pile put where their beams pass leaves them untouched (their "seabed residual" is a
+    metre or two, which would scatter them above the pile's top)."""
+    cloud = read(Path(__file__).parent / "data" / "ets_kmall_eg_-7360358516350552537.kmall")
+    extra = cloud.fields["extra_detection"].astype(bool)
+    assert extra.sum() > 100
+    centre = np.median(cloud.xyz[:, :2], axis=0)
+    inj = inject(cloud.xyz, cloud.fields, piles=[InjectedPile(1, *centre, 0.5, height=1.6)])
+    assert inj.truth["counts"]["per_pile"]["1"] > 500
+    np.testing.assert_array_equal(inj.xyz[extra], cloud.xyz[extra])
+    assert not inj.labels[extra].any()

@@ -309,7 +309,8 @@ def _axis_from_params(ax: float, ay: float) -> np.ndarray:
 
 def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = None,
                  z_ref: float | None = None, loss: str = "soft_l1", f_scale: float = 0.03,
-                 groups: np.ndarray | None = None) -> tuple[Cylinder, np.ndarray]:
+                 groups: np.ndarray | None = None, sigma: np.ndarray | None = None
+                 ) -> tuple[Cylinder, np.ndarray]:
     """Least squares on true orthogonal point-to-cylinder distances.
 
     Parameters
@@ -329,6 +330,11 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         fit is then refined as a random-effects (GLS) fit, which stops a ping with many
         soundings from counting as many independent ones, and its covariance is
         cluster-robust (a plain covariance would be far too small).
+    sigma : ndarray (N,), optional
+        Each point's noise (m): residuals are weighted by ``median(sigma) / sigma``, so
+        that noisier points count less while the residuals keep their metres (for
+        ``f_scale``). The covariance stays a sandwich of the weighted residuals, right
+        whether the weights are or not.
 
     Returns
     -------
@@ -350,12 +356,13 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
 
     shift = np.array([centre[0], centre[1], 0.0])
     rel = pts - shift  # local coordinates keep the normal equations well conditioned
+    w = 1.0 if sigma is None else float(np.median(sigma)) / np.asarray(sigma, np.float64)
 
     def resid(q: np.ndarray) -> np.ndarray:
         c, a, r = unpack(q)
         d = rel - c
         s = d @ a
-        return np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)) - r
+        return w * (np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)) - r)
 
     x0 = [p0[0] - centre[0], p0[1] - centre[1], a0[0] / a0[2], a0[1] / a0[2]]
     if not fixed_r:

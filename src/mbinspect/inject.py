@@ -266,7 +266,8 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     fields : dict of ndarray (N,)
         ``ping`` and ``beam_angle`` (native sonar formats give them); without them they
         are estimated from the soundings' order (:func:`estimate_pings`), with a warning
-        in ``truth["warnings"]``.
+        in ``truth["warnings"]``. Soundings marked ``extra_detection`` (KMALL's targets
+        in the water column) are not bottom detections: they stay where they are.
     piles : sequence of InjectedPile
     reefs : sequence of InjectedReef
 
@@ -304,6 +305,8 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     labels = np.zeros(len(pts), np.int8)
     ident = np.zeros(len(pts), np.int32)
     out = pts.copy()
+    if "extra_detection" in fields:
+        ok = ok & ~np.asarray(fields["extra_detection"], bool)
     rows = np.flatnonzero(ok)
     if len(rows):
         ray = local[rows] - o[rows]

@@ -46,6 +46,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "pile_method": ("intersection", "centre", "both"),
     "segmentation": ("joint", "paper"),
     "radius_mode": ("auto", "fixed", "free"),
+    "pile_weights": ("angle", "file", "none"),
     "reef_method": ("local", "paper"),
     "seabed": ("auto", "plane", "grid"),
     "pile_groups": ("auto", "none"),

@@ -55,6 +55,7 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
                         seed: int = 0, groups: np.ndarray | None = None,
                         start: Cylinder | None = None, radius_mode: str = "auto",
                         min_free_coverage_deg: float = 150.0, max_free_sigma: float = 0.005,
+                        side_sigma: np.ndarray | None = None,
                         ) -> tuple[Cylinder, Plane, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                    list[str]]:
     """The paper's intersection method, made robust and unbiased.
@@ -99,6 +100,8 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     radius_mode : {"auto", "fixed", "free"}
     min_free_coverage_deg, max_free_sigma : float
         When ``auto`` may fit the radius (deg, m).
+    side_sigma : ndarray (N,), optional
+        Each side point's noise (m): the least-squares cylinder weighs the points by it.
 
     Returns
     -------
@@ -153,7 +156,7 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     g = None if groups is None else np.asarray(groups)
 
     def refit(model: Cylinder, r: float | None) -> tuple[Cylinder, np.ndarray, np.ndarray]:
-        return refit_cylinder(ls, model, r, threshold=threshold, z_top=z_top, groups=g)
+        return refit_cylinder(ls, model, r, threshold=threshold, z_top=z_top, groups=g, sigma=side_sigma)
 
     cyl, cov, inl = refit(cyl0 if radius_mode != "fixed" else Cylinder(cyl0.point, cyl0.axis, radius),
                           None if radius_mode != "fixed" else radius)
@@ -178,7 +181,8 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
 
 
 def refit_cylinder(ls: np.ndarray, model: Cylinder, r: float | None, *, threshold: float, z_top: float,
-                   groups: np.ndarray | None) -> tuple[Cylinder, np.ndarray, np.ndarray]:
+                   groups: np.ndarray | None, sigma: np.ndarray | None = None
+                   ) -> tuple[Cylinder, np.ndarray, np.ndarray]:
     """Least-squares cylinder on the side points within a band that follows the noise.
 
     The band is 3 robust sigmas of the residuals, at least ``threshold`` (a fixed band
@@ -198,6 +202,8 @@ def refit_cylinder(ls: np.ndarray, model: Cylinder, r: float | None, *, threshol
         Height (m, local frame) at which the axis position is parametrised.
     groups : ndarray (N,), optional
         Ping of each point (random-effects refinement, cluster-robust covariance).
+    sigma : ndarray (N,), optional
+        Each point's noise (m), the weights of the fit.
 
     Returns
     -------
@@ -210,7 +216,8 @@ def refit_cylinder(ls: np.ndarray, model: Cylinder, r: float | None, *, threshol
     sel = res0 <= band
     for _ in range(3):
         model, cv = fit_cylinder(ls[sel], model, radius=r, z_ref=z_top, f_scale=band,
-                                 groups=None if g is None else g[sel])
+                                 groups=None if g is None else g[sel],
+                                 sigma=None if sigma is None else sigma[sel])
         res = model.residuals(ls)
         near = np.abs(res) <= 2.5 * band
         band = max(threshold, 3.0 * 1.4826 * float(np.median(np.abs(res[near])))) \

@@ -12,6 +12,13 @@ without each of :data:`PING_BLOCKS` blocks of successive pings instead: errors s
 neighbouring pings (a roll or heave that lasts, a refraction that drifts) and a narrow
 scanned arc that leaves the centre loosely held both show in the blocks' disagreement,
 where the model covariance, which takes pings as independent, would be too small.
+
+Errors that every ping shares at the same beam angle (a refraction or roll bias, or, in a
+real survey, seabed relief met at the same place across the swath by ping after ping) do not
+show between blocks of pings. So a pile seen by one or two lines is also measured again
+without each of :data:`SECTORS` sectors of beam angle (equal shares of its soundings), and
+that jackknife's covariance is added too. Seen by three lines or more, the lines meet the
+pile at different angles and their disagreement already holds such errors.
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ from .measure import measure_pile
 from .options import PileOptions
 from .results import PileMeasure, PileSegment
 
-__all__ = ["line_jackknife", "MIN_LINES", "PING_BLOCKS"]
+__all__ = ["line_jackknife", "MIN_LINES", "PING_BLOCKS", "SECTORS"]
 
 #: Fewest lines whose soundings a pile must hold for the jackknife over lines (and fewest
 #: blocks or lines left measurable for either jackknife).
@@ -34,6 +41,9 @@ MIN_LINES = 3
 
 #: Blocks of successive pings of the jackknife of a pile seen by fewer than MIN_LINES lines.
 PING_BLOCKS = 5
+
+#: Sectors of beam angle of the second jackknife of such a pile.
+SECTORS = 5
 
 
 def jackknife_units(seg: PileSegment, used: np.ndarray) -> tuple[np.ndarray | None, str]:
@@ -102,6 +112,46 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
     units, kind = jackknife_units(seg, used)
     if units is None:
         return fit
+    jack = _delete_one(seg, top_m, side_m, normals, fit, options, seed, units)
+    if jack is None:
+        return fit
+    sectors = sector_units(seg, used) if kind == "ping blocks" else None
+    if sectors is not None:
+        by_angle = _delete_one(seg, top_m, side_m, normals, fit, options, seed, sectors)
+        if by_angle is not None:
+            jack = jack + by_angle
+            kind = "ping blocks and beam-angle sectors"
+    cov = np.asarray(fit.cov)[:2, :2] + jack
+    return replace(fit, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)),
+                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)), jackknife=kind)
+
+
+def sector_units(seg: PileSegment, used: np.ndarray) -> np.ndarray | None:
+    """Each point's sector of beam angle: :data:`SECTORS` sectors holding equal shares of the
+    used points (by the angle's size and side); None without beam angles or with too few
+    distinct angles.
+
+    Examples
+    --------
+    >>> seg = PileSegment(np.zeros((10, 3)), np.ones(10, bool), np.zeros(10, bool),
+    ...                   beam_angle=np.linspace(20, 40, 10))
+    >>> sector_units(seg, np.ones(10, bool)).tolist()
+    [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]
+    """
+    if seg.beam_angle is None:
+        return None
+    ang = np.asarray(seg.beam_angle, np.float64)
+    if len(np.unique(ang[used])) < SECTORS:
+        return None
+    rank = np.searchsorted(np.sort(ang[used]), ang, side="right") - 1
+    return np.clip(rank * SECTORS // int(used.sum()), 0, SECTORS - 1)
+
+
+def _delete_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, normals: np.ndarray,
+                fit: PileMeasure, options: PileOptions, seed: int, units: np.ndarray) -> np.ndarray | None:
+    """The delete-one jackknife covariance (2, 2) of the plan centre over ``units`` (None
+    when fewer than :data:`MIN_LINES` of them leave a measurable pile)."""
+    used = top_m | side_m
     centres = []
     for ln in np.unique(units[used]):
         keep = units != ln
@@ -112,10 +162,7 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
             continue
         centres.append((m.x, m.y))
     if len(centres) < MIN_LINES:
-        return fit
+        return None
     c = np.asarray(centres)
     d = c - c.mean(axis=0)
-    jack = (len(c) - 1) / len(c) * (d.T @ d)
-    cov = np.asarray(fit.cov)[:2, :2] + jack
-    return replace(fit, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)),
-                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)), jackknife=kind)
+    return (len(c) - 1) / len(c) * (d.T @ d)

@@ -14,6 +14,7 @@ from .centre import centre_summary
 from .intersect import intersection_method, side_coverage
 from .options import PileOptions
 from .results import PileMeasure, PileSegment
+from .weights import side_sigma
 
 __all__ = ["measure_pile", "prune"]
 
@@ -107,20 +108,26 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
     cyl, plane, centre, s_in, t_in, cov, notes = intersection_method(
         side, side_normals, top, radius=options.radius, threshold=options.threshold,
         max_tilt_deg=options.max_tilt_deg, seed=seed, groups=gside,
-        start=previous.cylinder if previous is not None else None, radius_mode=options.radius_mode)
+        start=previous.cylinder if previous is not None else None, radius_mode=options.radius_mode,
+        side_sigma=side_sigma(seg, side_m, previous, options.weights))
     r_res = cyl.residuals(side[s_in])
+    r_free: float | None = None
+    r_sigma = math.nan
     try:
-        free, _ = fit_cylinder(side[s_in], cyl, radius=None, z_ref=float(centre[2]),
-                               f_scale=options.threshold / 3)
-        r_free: float | None = free.radius
+        free, fcov = fit_cylinder(side[s_in], cyl, radius=None, z_ref=float(centre[2]),
+                                  f_scale=options.threshold / 3,
+                                  groups=None if gside is None else gside[s_in])
+        r_free = free.radius
+        r_sigma = math.sqrt(float(fcov[4, 4])) if fcov.shape[0] > 4 and fcov[4, 4] >= 0 else math.nan
     except Exception:
-        r_free = None
+        pass
     sig = math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0))
     return PileMeasure(float(centre[0]), float(centre[1]), float(centre[2]), "intersection", cov[:2, :2],
                        sig, float(np.sqrt(np.mean(r_res**2))), int(t_in.sum()), int(s_in.sum()),
                        coverage=side_coverage(cyl, side[s_in]), top_coverage=None,
                        tilt_deg=cyl.tilt_deg, tilt_azimuth_deg=cyl.tilt_bearing_deg, cylinder=cyl,
-                       plane=plane, radius_fitted=r_free, radius_used=cyl.radius, flags=tuple(notes))
+                       plane=plane, radius_fitted=r_free, radius_used=cyl.radius, flags=tuple(notes),
+                       radius_fitted_sigma=r_sigma)
 
 
 def prune(seg: PileSegment, fit: PileMeasure, *, radius: float, ks: float, threshold: float

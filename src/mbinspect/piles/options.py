@@ -67,6 +67,9 @@ class PileOptions(Options):
                                  check="bool", flag="intensity")
     segmentation: str = option("joint", help="window + normals + backscatter (joint) or the window "
                                "alone (paper)", choices="segmentation")
+    weights: str = option("angle", help="weigh each side sounding by the noise at its beam angle, measured "
+                          "on the pile's own side (angle), by the file's horizontal uncertainty (file), "
+                          "or not at all (none)", choices="pile_weights")
     radius_mode: str = option("auto", help="keep the prior radius (fixed, the paper), fit it (free), or "
                               "fit it where the side coverage supports it (auto)", choices="radius_mode")
     delta: float = option(0.01, unit="m", help="stop when every spacing changes by less than this",

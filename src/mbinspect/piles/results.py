@@ -29,6 +29,8 @@ class PileSegment:
     side: np.ndarray
     ping: np.ndarray | None = None
     line: np.ndarray | None = None
+    beam_angle: np.ndarray | None = None
+    sigma_h: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,6 +63,8 @@ class PileMeasure:
         The radius the side points show when fitted freely (m).
     radius_used : float or None
         The radius of the cylinder used (m).
+    radius_fitted_sigma : float
+        The 1-sigma of ``radius_fitted`` (m), cluster-robust by ping (NaN: none).
     flags : tuple of str
         Doubts met while measuring.
     alternatives : dict
@@ -70,8 +74,9 @@ class PileMeasure:
         The part of ``sigma_xy`` the jackknife adds (m; NaN: not computed;
         :func:`~mbinspect.piles.jackknife.line_jackknife`).
     jackknife : str
-        Its units: "lines" (the lines' disagreement), "ping blocks" (a pile seen by one or
-        two lines) or "".
+        Its units: "lines" (the lines' disagreement), "ping blocks and beam-angle sectors"
+        (a pile seen by one or two lines, both jackknifes added), "ping blocks" (the same
+        without beam angles) or "".
     """
 
     x: float
@@ -95,6 +100,7 @@ class PileMeasure:
     alternatives: dict[str, dict[str, Any]] = field(default_factory=dict)
     line_sigma_xy: float = math.nan
     jackknife: str = ""
+    radius_fitted_sigma: float = math.nan
 
     @property
     def centre(self) -> np.ndarray:

@@ -22,6 +22,7 @@ from .frame import fit_frames
 from .group import group_piles
 from .iterate import iterate
 from .options import PileOptions
+from .radius import JointRadius, joint_radius
 from .results import PileFit, PileResult, Spacing
 from .separate import separate_piles
 from .space import spacings
@@ -84,6 +85,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
             f"the candidate near ({r['x']:.1f}, {r['y']:.1f}) is not a pile ({', '.join(r['reasons'])})"
             for r in m.rejected))
     parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
+                  "joint_radius": None if m.joint_radius is None else m.joint_radius.to_dict(),
                   "input": {"source": m.cloud.source, "n_points": len(m.cloud), "crs": m.cloud.crs},
                   "software": f"mbinspect {__version__}"}
     result = relate_piles(m.piles, m.covs, opts, design=design, parameters=parameters,
@@ -108,6 +110,7 @@ class MeasuredPiles:
     cylinders: dict[int, Any] = field(default_factory=dict)
     segmentation: dict[str, Any] = field(default_factory=dict)
     iterations: tuple[dict[str, Any], ...] = ()
+    joint_radius: JointRadius | None = None
 
 
 def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
@@ -147,11 +150,21 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     report(0.3)
     thr, backscatter = pile_thresholds(intensity, pts, eidx, labels, np.abs(height) < GROUND_BAND,
                                        opts.radius, beam_angle=cloud.fields.get("beam_angle"), line=line)
-    segs, side_n, seg_info = segment_piles(
-        pts[eidx], labels, opts, intensity=backscatter,
-        intensity_threshold=thr, ping=None if ping is None else ping[eidx],
-        line=None if line is None else line[eidx])
+    per_point = {name: None if f is None else f[eidx] for name, f in (
+        ("ping", ping), ("line", line), ("beam_angle", cloud.fields.get("beam_angle")),
+        ("sigma_h", cloud.fields.get("sigma_h")))}
+    segs, side_n, seg_info = segment_piles(pts[eidx], labels, opts, intensity=backscatter,
+                                           intensity_threshold=thr, **per_point)
     fits, iterations, unmeasured = iterate(segs, side_n, opts, report)
+    joint = joint_radius(fits, opts.radius, min_coverage_deg=opts.min_coverage_deg) \
+        if opts.radius_mode == "auto" else None
+    if joint is not None and joint.rejects_prior:
+        # the piles share a radius the prior is not: all of them measured again with it
+        opts = opts.replace(radius=joint.radius, radius_mode="fixed")
+        segs, side_n, seg_info = segment_piles(pts[eidx], labels, opts, intensity=backscatter,
+                                               intensity_threshold=thr, **per_point)
+        fits, iterations, unmeasured = iterate(segs, side_n, opts, report)
+        warnings.append(joint.note)
     files = cloud.meta.get("files") or [cloud.source or "(array)"]
     piles = tuple(replace(assess_pile(pid, fits[pid], opts),
                           sources=sources(eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
@@ -169,7 +182,7 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
         {new: fits[old].cylinder for new, old in kept.items() if fits[old].cylinder is not None},
         {"intensity_threshold": {new: thr.get(old) for new, old in kept.items()},
          "piles": {new: seg_info[old] for new, old in kept.items() if old in seg_info}},
-        tuple(iterations))
+        tuple(iterations), joint)
 
 
 def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: PileOptions, *,
