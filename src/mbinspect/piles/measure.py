@@ -76,7 +76,8 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
             raise DataError(f"pile at ({seg.points[:, 0].mean():.2f}, {seg.points[:, 1].mean():.2f}): "
                             "no top points and too few side points to measure it")
         start = None if previous is None else previous.centre
-        centre = centre_summary(top, radius=options.radius, ks=options.ks, start=start, groups=gtop)
+        centre = centre_summary(top, radius=options.radius, ks=options.ks, start=start, groups=gtop,
+                                cell=_area_cell(options))
         alternatives["centre"] = centre
     found = None
     if method in ("intersection", "both") and len(side) >= 6 and len(top) >= 3:
@@ -89,7 +90,8 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
                                             "sigma_xy": found.sigma_xy}
     if found is None:
         if centre is None:
-            centre = centre_summary(top, radius=options.radius, ks=options.ks, start=None, groups=gtop)
+            centre = centre_summary(top, radius=options.radius, ks=options.ks, start=None, groups=gtop,
+                                    cell=_area_cell(options))
         dz = top[:, 2] - centre["z"]
         if method != "centre" and not flags:
             flags.append(f"only {len(side)} side points: centre method used")
@@ -98,6 +100,16 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
                             int(len(side)), coverage=0.0, top_coverage=centre["top_coverage"])
     return PileMeasure(**{**found.__dict__, "flags": tuple(flags) + found.flags,
                           "alternatives": alternatives if method == "both" else {}})
+
+
+#: The area mean's cell, as a share of the radius (0.1 m for a 0.5 m pile).
+AREA_CELL_SHARE = 0.2
+
+
+def _area_cell(options: PileOptions) -> float | None:
+    """The centre method's area-mean cell (m); None (the paper's plain mean) with the
+    paper's segmentation."""
+    return None if options.segmentation == "paper" else AREA_CELL_SHARE * options.radius
 
 
 def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m: np.ndarray,
