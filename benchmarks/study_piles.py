@@ -1,6 +1,7 @@
 """Pile accuracy study against simulator truth: both methods, many seeds, hard variants.
 
-Run: ``python benchmarks/study_piles.py [--seeds 20] [--configs default,tilt5,...]``.
+Run: ``python benchmarks/study_piles.py [--seeds 20] [--configs default,tilt5,...] [--ablation]``.
+``--ablation`` adds our method without the side weights and without the joint radius.
 Prints, per configuration and method, the spacing error RMS and max, the centre error max
 (plan), the tilt error max, the share of spacings within their 2 and 3 sigma, and the number of
 flagged piles. Each seed simulates the full ``jacket`` preset (about 2.2 M soundings).
@@ -9,6 +10,7 @@ flagged piles. Each seed simulates the full ``jacket`` preset (about 2.2 M sound
 from __future__ import annotations
 
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -47,6 +49,14 @@ VARIANTS: dict[str, dict] = {
     "paper centre": {"method": "centre", "segmentation": "paper", "use_intensity": False},
 }
 
+ABLATION_ENV = "MBINSPECT_STUDY_ABLATION"
+
+#: ``--ablation``: our method without one of its parts
+ABLATION: dict[str, dict] = {
+    "intersection, unweighted": {"method": "intersection", "weights": "none"},
+    "intersection, no joint radius": {"method": "intersection", "radius_mode": "each"},
+}
+
 
 def run_one(args: tuple[str, int]) -> list[dict]:
     name, seed = args
@@ -55,7 +65,8 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     truth = {p["id"]: p for p in sim.truth["piles"]}
     tsp = {(s["a"], s["b"]): s["distance"] for s in sim.truth["spacings"]}
     rows = []
-    for method, extra in VARIANTS.items():
+    variants = {**VARIANTS, **ABLATION} if os.environ.get(ABLATION_ENV) else VARIANTS
+    for method, extra in variants.items():
         kw = {"count": 4, "radius": 0.75, "seed": seed, **extra, **loc_kw}
         if kw["count"] is None:
             kw.pop("count")
@@ -82,6 +93,15 @@ def run_one(args: tuple[str, int]) -> list[dict]:
 
 
 def main() -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(add_help=False)
+    ap.add_argument("--ablation", action="store_true")
+    known, rest = ap.parse_known_args()
+    sys.argv = [sys.argv[0], *rest]
+    if known.ablation:  # the environment reaches the pool's workers however they start
+        os.environ[ABLATION_ENV] = "1"
+        VARIANTS.update(ABLATION)
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)
     out = []
     for c in chosen:

@@ -126,6 +126,10 @@ def test_wrong_radius_is_flagged_and_corrected_where_the_data_allow(jacket_small
     right = locate_piles(jacket_small.cloud, count=4, radius=0.75)
     assert not right.parameters["joint_radius"]["rejects_prior"]
     assert not any("rejected by the data" in w for w in right.warnings)
+    # piles of several radii: "each" takes no joint radius, each pile's side alone
+    each = locate_piles(jacket_small.cloud, count=4, radius=0.6, radius_mode="each")
+    assert each.parameters["joint_radius"] is None
+    assert all(any("the points show a radius of" in f for f in p.flags) for p in each.piles)
 
 
 def test_no_points_above_the_seabed():

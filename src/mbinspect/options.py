@@ -45,7 +45,7 @@ __all__ = ["CHOICES", "OptionSpec", "option", "Options", "add_flags", "given_opt
 CHOICES: dict[str, tuple[str, ...]] = {
     "pile_method": ("intersection", "centre", "both"),
     "segmentation": ("joint", "paper"),
-    "radius_mode": ("auto", "fixed", "free"),
+    "radius_mode": ("auto", "each", "fixed", "free"),
     "pile_weights": ("angle", "file", "none"),
     "reef_method": ("local", "paper"),
     "seabed": ("auto", "plane", "grid"),

@@ -97,7 +97,9 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
         Ping of each side point.
     start : Cylinder, optional
         A cylinder from the previous iteration (skips MSAC).
-    radius_mode : {"auto", "fixed", "free"}
+    radius_mode : {"auto", "each", "fixed", "free"}
+        "each" is "auto" here (it differs only in :func:`~mbinspect.piles.locate_piles`,
+        which then takes no joint radius).
     min_free_coverage_deg, max_free_sigma : float
         When ``auto`` may fit the radius (deg, m).
     side_sigma : ndarray (N,), optional
@@ -127,6 +129,8 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     [3.0, 4.0, -16.0]
     """
     one_of("radius_mode", radius_mode, CHOICES["radius_mode"])
+    if radius_mode == "each":  # the piles' joint radius is not this stage's: per pile, it is auto
+        radius_mode = "auto"
     s = np.asarray(side, np.float64)
     t = np.asarray(top, np.float64)
     if len(t) < 3:

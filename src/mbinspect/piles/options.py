@@ -70,8 +70,10 @@ class PileOptions(Options):
     weights: str = option("angle", help="weigh each side sounding by the noise at its beam angle, measured "
                           "on the pile's own side (angle), by the file's horizontal uncertainty (file), "
                           "or not at all (none)", choices="pile_weights")
-    radius_mode: str = option("auto", help="keep the prior radius (fixed, the paper), fit it (free), or "
-                              "fit it where the side coverage supports it (auto)", choices="radius_mode")
+    radius_mode: str = option("auto", help="keep the prior radius (fixed, the paper), fit it (free), fit "
+                              "it where a pile's side supports it (each), or that and one radius for all "
+                              "the piles where theirs together reject the prior (auto)",
+                              choices="radius_mode")
     delta: float = option(0.01, unit="m", help="stop when every spacing changes by less than this",
                           check="positive")
     max_iterations: int = option(20, help="most iterations", check="count", metavar="N")

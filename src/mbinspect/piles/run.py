@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -153,22 +153,27 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     per_point = {name: None if f is None else f[eidx] for name, f in (
         ("ping", ping), ("line", line), ("beam_angle", cloud.fields.get("beam_angle")),
         ("sigma_h", cloud.fields.get("sigma_h")))}
-    segs, side_n, seg_info = segment_piles(pts[eidx], labels, opts, intensity=backscatter,
-                                           intensity_threshold=thr, **per_point)
-    fits, iterations, unmeasured = iterate(segs, side_n, opts, report)
-    joint = joint_radius(fits, opts.radius, min_coverage_deg=opts.min_coverage_deg) \
-        if opts.radius_mode == "auto" else None
+    files = cloud.meta.get("files") or [cloud.source or "(array)"]
+
+    def judged(o: PileOptions) -> _Judged:
+        """Every candidate segmented, measured, judged and kept or set aside, with ``o``."""
+        segs, side_n, seg_info = segment_piles(pts[eidx], labels, o, intensity=backscatter,
+                                               intensity_threshold=thr, **per_point)
+        fits, iterations, unmeasured = iterate(segs, side_n, o, report)
+        piles = tuple(replace(assess_pile(pid, fits[pid], o), sources=sources(
+            eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
+        return _Judged(segs, seg_info, fits, iterations, unmeasured, *_standing(piles, seabed, o))
+
+    j = judged(opts)
+    # the joint radius of the candidates that stand as piles (a wall's radius is no pile's)
+    joint = joint_radius({old: j.fits[old] for old in j.kept.values()}, opts.radius,
+                         min_coverage_deg=opts.min_coverage_deg) if opts.radius_mode == "auto" else None
     if joint is not None and joint.rejects_prior:
         # the piles share a radius the prior is not: all of them measured again with it
         opts = opts.replace(radius=joint.radius, radius_mode="fixed")
-        segs, side_n, seg_info = segment_piles(pts[eidx], labels, opts, intensity=backscatter,
-                                               intensity_threshold=thr, **per_point)
-        fits, iterations, unmeasured = iterate(segs, side_n, opts, report)
+        j = judged(opts)
         warnings.append(joint.note)
-    files = cloud.meta.get("files") or [cloud.source or "(array)"]
-    piles = tuple(replace(assess_pile(pid, fits[pid], opts),
-                          sources=sources(eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
-    piles, kept, rejected = _standing(piles, seabed, opts)
+    segs, seg_info, fits, iterations, unmeasured, piles, kept, rejected = j
     for pid, why in unmeasured.items():
         c = segs[pid].points.mean(axis=0)
         rejected.append({"x": float(c[0]), "y": float(c[1]), "z": float(segs[pid].points[:, 2].max()),
@@ -183,6 +188,19 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
         {"intensity_threshold": {new: thr.get(old) for new, old in kept.items()},
          "piles": {new: seg_info[old] for new, old in kept.items() if old in seg_info}},
         tuple(iterations), joint)
+
+
+class _Judged(NamedTuple):
+    """What :func:`measure_piles` learns with one set of options."""
+
+    segs: dict[int, Any]
+    seg_info: dict[int, dict[str, Any]]
+    fits: dict[int, Any]
+    iterations: list[dict[str, Any]]
+    unmeasured: dict[int, str]
+    piles: tuple[PileFit, ...]
+    kept: dict[int, int]
+    rejected: list[dict[str, Any]]
 
 
 def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: PileOptions, *,
