@@ -45,7 +45,7 @@ CONFIGS: dict[str, tuple[dict, dict]] = {
 VARIANTS: dict[str, dict] = {
     "intersection": {"method": "intersection"},
     "paper intersection": {"method": "intersection", "radius_mode": "fixed", "segmentation": "paper",
-                           "use_intensity": False},
+                           "use_intensity": False, "axis_mode": "free"},
     "paper centre": {"method": "centre", "segmentation": "paper", "use_intensity": False},
 }
 

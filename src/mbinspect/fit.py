@@ -309,8 +309,8 @@ def _axis_from_params(ax: float, ay: float) -> np.ndarray:
 
 def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = None,
                  z_ref: float | None = None, loss: str = "soft_l1", f_scale: float = 0.03,
-                 groups: np.ndarray | None = None, sigma: np.ndarray | None = None
-                 ) -> tuple[Cylinder, np.ndarray]:
+                 groups: np.ndarray | None = None, sigma: np.ndarray | None = None,
+                 plumb: bool = False) -> tuple[Cylinder, np.ndarray]:
     """Least squares on true orthogonal point-to-cylinder distances.
 
     Parameters
@@ -335,6 +335,8 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         that noisier points count less while the residuals keep their metres (for
         ``f_scale``). The covariance stays a sandwich of the weighted residuals, right
         whether the weights are or not.
+    plumb : bool
+        Hold the axis vertical (the slopes' rows and columns of the covariance are 0).
 
     Returns
     -------
@@ -350,9 +352,12 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
     centre = pts.mean(axis=0)
     fixed_r = radius is not None
 
+    n_ax = 0 if plumb else 2
+
     def unpack(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        r = float(radius) if radius is not None else float(q[4])
-        return np.array([q[0], q[1], zr]), _axis_from_params(q[2], q[3]), r
+        r = float(radius) if radius is not None else float(q[2 + n_ax])
+        a = np.array([0.0, 0.0, 1.0]) if plumb else _axis_from_params(q[2], q[3])
+        return np.array([q[0], q[1], zr]), a, r
 
     shift = np.array([centre[0], centre[1], 0.0])
     rel = pts - shift  # local coordinates keep the normal equations well conditioned
@@ -364,7 +369,7 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         s = d @ a
         return w * (np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)) - r)
 
-    x0 = [p0[0] - centre[0], p0[1] - centre[1], a0[0] / a0[2], a0[1] / a0[2]]
+    x0 = [p0[0] - centre[0], p0[1] - centre[1]] + ([] if plumb else [a0[0] / a0[2], a0[1] / a0[2]])
     if not fixed_r:
         x0.append(start.radius)
     sol = least_squares(resid, np.array(x0), loss=loss, f_scale=f_scale, x_scale=0.01)
@@ -380,6 +385,11 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         sol = least_squares(resid_gls, sol.x, loss=loss, f_scale=f_scale, x_scale=0.01)
     c, a, r = unpack(sol.x)
     cov = _sandwich(sol.jac, sol.fun, groups)
+    if plumb:  # the layout of a free axis, its slopes held
+        keep = [0, 1] + ([] if fixed_r else [4])
+        full = np.zeros((4 + (not fixed_r),) * 2)
+        full[np.ix_(keep, keep)] = cov
+        cov = full
     return Cylinder(c + shift, a, r), cov
 
 

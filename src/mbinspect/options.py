@@ -47,6 +47,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "segmentation": ("joint", "paper"),
     "radius_mode": ("auto", "each", "fixed", "free"),
     "pile_weights": ("angle", "file", "none"),
+    "axis_mode": ("auto", "free"),
     "reef_method": ("local", "paper"),
     "seabed": ("auto", "plane", "grid"),
     "pile_groups": ("auto", "none"),

@@ -60,7 +60,7 @@ def assess_pile(pid: int, m: PileMeasure, options: PileOptions) -> PileFit:
         n_side=m.n_side, side_coverage_deg=m.coverage, rms=m.rms, sigma_xy=m.sigma_xy,
         flags=tuple(flags), radius_fitted=m.radius_fitted, top_coverage=m.top_coverage,
         alternatives=m.alternatives, line_sigma_xy=m.line_sigma_xy,
-        jackknife=m.jackknife)
+        jackknife=m.jackknife, tilt_held=m.tilt_held)
 
 
 def other_method_piles(piles: tuple[PileFit, ...], radius: float

@@ -117,11 +117,11 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
                      previous: PileMeasure | None) -> PileMeasure:
     """The intersection method's measure of one pile (raises DataError when it cannot)."""
     gside = None if seg.ping is None else seg.ping[side_m]
-    cyl, plane, centre, s_in, t_in, cov, notes = intersection_method(
+    cyl, plane, centre, s_in, t_in, cov, notes, held = intersection_method(
         side, side_normals, top, radius=options.radius, threshold=options.threshold,
         max_tilt_deg=options.max_tilt_deg, seed=seed, groups=gside,
         start=previous.cylinder if previous is not None else None, radius_mode=options.radius_mode,
-        side_sigma=side_sigma(seg, side_m, previous, options.weights))
+        side_sigma=side_sigma(seg, side_m, previous, options.weights), axis_mode=options.axis_mode)
     r_res = cyl.residuals(side[s_in])
     r_free: float | None = None
     r_sigma = math.nan
@@ -139,7 +139,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
                        coverage=side_coverage(cyl, side[s_in]), top_coverage=None,
                        tilt_deg=cyl.tilt_deg, tilt_azimuth_deg=cyl.tilt_bearing_deg, cylinder=cyl,
                        plane=plane, radius_fitted=r_free, radius_used=cyl.radius, flags=tuple(notes),
-                       radius_fitted_sigma=r_sigma)
+                       radius_fitted_sigma=r_sigma, tilt_held=held)
 
 
 def prune(seg: PileSegment, fit: PileMeasure, *, radius: float, ks: float, threshold: float

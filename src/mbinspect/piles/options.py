@@ -70,6 +70,9 @@ class PileOptions(Options):
     weights: str = option("angle", help="weigh each side sounding by the noise at its beam angle, measured "
                           "on the pile's own side (angle), by the file's horizontal uncertainty (file), "
                           "or not at all (none)", choices="pile_weights")
+    axis_mode: str = option("auto", help="hold a pile's axis plumb where the data do not show a tilt "
+                            "(95 per cent) (auto), or always fit the tilt (free, the paper)",
+                            choices="axis_mode")
     radius_mode: str = option("auto", help="keep the prior radius (fixed, the paper), fit it (free), fit "
                               "it where a pile's side supports it (each), or that and one radius for all "
                               "the piles where theirs together reject the prior (auto)",

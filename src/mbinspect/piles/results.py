@@ -65,6 +65,9 @@ class PileMeasure:
         The radius of the cylinder used (m).
     radius_fitted_sigma : float
         The 1-sigma of ``radius_fitted`` (m), cluster-robust by ping (NaN: none).
+    tilt_held : bool
+        The data did not show a tilt (95 %): the axis was held plumb, and the plan
+        covariance carries the tilt they allow.
     flags : tuple of str
         Doubts met while measuring.
     alternatives : dict
@@ -101,6 +104,7 @@ class PileMeasure:
     line_sigma_xy: float = math.nan
     jackknife: str = ""
     radius_fitted_sigma: float = math.nan
+    tilt_held: bool = False
 
     @property
     def centre(self) -> np.ndarray:
@@ -137,13 +141,14 @@ class PileFit:
     line_sigma_xy: float = math.nan
     jackknife: str = ""
     sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
+    tilt_held: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``piles.json``; the other method's centre under ``methods``."""
         d: dict[str, Any] = {
             "id": self.id, "group": self.group, "x": self.x, "y": self.y, "z": self.z, "radius": self.radius,
             "tilt_deg": self.tilt_deg, "tilt_azimuth_deg": self.tilt_azimuth_deg,
-            "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
+            "tilt_held": self.tilt_held, "method": self.method, "n_top": self.n_top, "n_side": self.n_side,
             "side_coverage_deg": self.side_coverage_deg, "rms": self.rms,
             "sigma_xy": self.sigma_xy, "line_sigma_xy": self.line_sigma_xy,
             "jackknife": self.jackknife or None, "flags": list(self.flags),

@@ -127,7 +127,7 @@ def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
                 a2.plot(dx + sgn * p.radius / cyl.axis[2], zz, "r-", lw=1.2)
         a2.set_xlabel("east from centre (m)")
         a2.set_ylabel("elevation (m)")
-        tilt = ("" if p.tilt_deg is None
+        tilt = ("" if p.tilt_deg is None else ", no tilt shown: axis held plumb" if p.tilt_held
                 else f", tilt {p.tilt_deg:.2f} deg toward {p.tilt_azimuth_deg:.0f} deg")
         fig.suptitle(f"Pile {p.id}: {p.n_top} top and {p.n_side} side points{tilt}")
         images[f"pile{p.id}"] = save_figure(fig, out / f"pile_{p.id}.png")
@@ -151,8 +151,8 @@ def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
     return images
 
 
-_PILE_COLS = ["id", "group", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "method", "n_top",
-              "n_side", "side_coverage_deg", "rms", "sigma_xy", "flags"]
+_PILE_COLS = ["id", "group", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "tilt_held", "method",
+              "n_top", "n_side", "side_coverage_deg", "rms", "sigma_xy", "flags"]
 
 
 _SPACING_COLS = ["group", "a", "b", "distance", "sigma", "design", "deviation", "verdict", "pass", "method"]
@@ -184,8 +184,10 @@ def _spacing_row(s: Any) -> dict[str, Any]:
 
 def _pile_row(p: Any) -> dict[str, Any]:
     return {"id": p.id, "group": p.group, "x": f"{p.x:.3f}", "y": f"{p.y:.3f}", "z": f"{p.z:.3f}",
-            "radius": f"{p.radius:.3f}", "tilt": "" if p.tilt_deg is None else f"{p.tilt_deg:.1f}",
-            "toward": "" if p.tilt_azimuth_deg is None else f"{p.tilt_azimuth_deg:.0f}", "method": p.method,
+            "radius": f"{p.radius:.3f}",
+            "tilt": "" if p.tilt_deg is None else "plumb (held)" if p.tilt_held else f"{p.tilt_deg:.1f}",
+            "toward": "" if p.tilt_azimuth_deg is None or p.tilt_held else f"{p.tilt_azimuth_deg:.0f}",
+            "method": p.method,
             "n_top": p.n_top, "n_side": p.n_side, "arc": f"{p.side_coverage_deg:.0f}",
             "rms": f"{1000 * p.rms:.1f}", "sigma": f"{1000 * p.sigma_xy:.1f}", "flags": "; ".join(p.flags)}
 
