@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -192,25 +193,12 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
                 or not rejected):
             cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
     notes = []
-    held = False
-    if axis_mode == "auto":
-        slopes = cyl.axis[:2] / cyl.axis[2]
-        c_s = cov[2:4, 2:4]
-        try:
-            d2 = float(slopes @ np.linalg.solve(c_s, slopes))
-        except np.linalg.LinAlgError:
-            d2 = math.inf
-        loose = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(c_s)[-1]), 0.0))) > PLUMB_MIN_SIGMA_DEG
-        # a cylinder leaning past max_tilt_deg is no pile's: it is judged on its own fit
-        if d2 < PLUMB_CHI2 and loose and cyl.tilt_deg <= max_tilt_deg:
-            r_fix = None if radius_mode == "free" or cyl.radius != radius else radius
-            p_cyl, p_cov, p_inl = refit(Cylinder(cyl.point, np.array([0.0, 0.0, 1.0]), cyl.radius), r_fix,
-                                        plumb=True)
-            if p_inl.sum() >= 6:
-                dz = z_top - float(np.mean(ls[p_inl, 2]))
-                p_cov[:2, :2] += dz**2 * c_s
-                p_cov[2:4, 2:4] = c_s
-                cyl, cov, inl, held = p_cyl, p_cov, p_inl, True
+    plumb = _held_plumb(cyl, cov, refit, ls, z_top, max_tilt_deg,
+                        None if radius_mode == "free" or cyl.radius != radius else radius) \
+        if axis_mode == "auto" else None
+    held = plumb is not None
+    if plumb is not None:
+        cyl, cov, inl = plumb
     if not level:
         plane = Plane(np.median(lt, axis=0), cyl.axis if cyl.axis[2] >= 0 else -cyl.axis)
         notes.append(f"the top points' plane leans {lean:.0f} deg: top taken square to the axis")
@@ -221,6 +209,32 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     out_plane = Plane(plane.point + shift, plane.normal)
     top_in = np.abs(plane.residuals(lt)) <= threshold / 2
     return out_cyl, out_plane, centre + shift, inl, top_in, cov, notes, held
+
+
+def _held_plumb(cyl: Cylinder, cov: np.ndarray, refit: Callable[..., tuple[Cylinder, np.ndarray, np.ndarray]],
+                ls: np.ndarray, z_top: float, max_tilt_deg: float, radius: float | None
+                ) -> tuple[Cylinder, np.ndarray, np.ndarray] | None:
+    """The cylinder refitted with its axis plumb, when the fitted tilt is not shown by the
+    data (:data:`PLUMB_CHI2`, :data:`PLUMB_MIN_SIGMA_DEG`, within ``max_tilt_deg``: past
+    it the fit says the candidate is no pile); its plan covariance adds the height from
+    the side's middle to the top squared times the slopes' covariance. None otherwise."""
+    slopes = cyl.axis[:2] / cyl.axis[2]
+    c_s = cov[2:4, 2:4]
+    try:
+        d2 = float(slopes @ np.linalg.solve(c_s, slopes))
+    except np.linalg.LinAlgError:
+        return None
+    loose = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(c_s)[-1]), 0.0))) > PLUMB_MIN_SIGMA_DEG
+    if not (d2 < PLUMB_CHI2 and loose and cyl.tilt_deg <= max_tilt_deg):
+        return None
+    p_cyl, p_cov, p_inl = refit(Cylinder(cyl.point, np.array([0.0, 0.0, 1.0]), cyl.radius), radius,
+                                plumb=True)
+    if p_inl.sum() < 6:
+        return None
+    dz = z_top - float(np.mean(ls[p_inl, 2]))
+    p_cov[:2, :2] += dz**2 * c_s
+    p_cov[2:4, 2:4] = c_s
+    return p_cyl, p_cov, p_inl
 
 
 def refit_cylinder(ls: np.ndarray, model: Cylinder, r: float | None, *, threshold: float, z_top: float,
