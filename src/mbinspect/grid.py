@@ -11,7 +11,7 @@ from scipy import ndimage
 
 __all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "stray_soundings", "stray_cells", "cell_groups", "STRAY_SHARE",
-           "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells"]
+           "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells", "cell_key"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -275,14 +275,14 @@ def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 
     # same cells as the whole survey; a chunk at a time, so that 10 M soundings cost no more
     # than their own arrays (one pass over all of them took 0.5 GB)
     spans = range(0, len(xy), STRAY_CHUNK)
-    parts = [np.unique(_cell_key(xy[s:s + STRAY_CHUNK], cell), return_counts=True) for s in spans]
+    parts = [np.unique(cell_key(xy[s:s + STRAY_CHUNK], cell), return_counts=True) for s in spans]
     keys, inverse = np.unique(np.concatenate([k for k, _ in parts]), return_inverse=True)
     counts = np.bincount(inverse.ravel(), weights=np.concatenate([c for _, c in parts])).astype(np.int64)
     bad = keys[stray_cells(unpack_cells(keys), counts, gap_cells=gap_cells, share=share)]
     out = np.zeros(len(xy), dtype=bool)
     if len(bad):
         for s in spans:
-            out[s:s + STRAY_CHUNK] = np.isin(_cell_key(xy[s:s + STRAY_CHUNK], cell), bad)
+            out[s:s + STRAY_CHUNK] = np.isin(cell_key(xy[s:s + STRAY_CHUNK], cell), bad)
     return out
 
 
@@ -307,7 +307,7 @@ def unpack_cells(key: np.ndarray) -> np.ndarray:
     return np.column_stack([key // (1 << 31) - (1 << 30), key % (1 << 31) - (1 << 30)])
 
 
-def _cell_key(xy: np.ndarray, cell: float) -> np.ndarray:
+def cell_key(xy: np.ndarray, cell: float) -> np.ndarray:
     """Each point's plan cell (from (0, 0)) as one :func:`pack_cells` key."""
     return pack_cells(np.floor(xy[:, 0] / cell), np.floor(xy[:, 1] / cell))
 

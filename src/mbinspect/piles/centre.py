@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError
+from ..grid import cell_key
 
 __all__ = ["centre_method", "top_coverage", "centre_summary", "segment_bias"]
 
@@ -100,9 +101,8 @@ def centre_method(top: np.ndarray, *, radius: float, ks: float = 0.1, start: np.
 
 def _area_weights(xy: np.ndarray, cell: float) -> np.ndarray:
     """Each point's weight in an area mean: one over the points in its ``cell`` m square."""
-    key = np.floor(xy / cell).astype(np.int64)
-    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return 1.0 / count[inv.ravel()]
+    _, inv, count = np.unique(cell_key(xy, cell), return_inverse=True, return_counts=True)
+    return 1.0 / count[inv]
 
 
 def top_coverage(top: np.ndarray, centre: np.ndarray, radius: float, cell: float = 0.15) -> float:
