@@ -1,7 +1,8 @@
 """Stage 6b: only piles are piles. A measured candidate that cannot be a standing pile
 (its top not above the seabed, leaning past ``max_tilt_deg``, or a radius far from the
-prior), or that could only be given a centre from a handful of top points or from a small
-part of a top with no side, is taken out of the answer and listed with the reasons."""
+prior), or that could only be given a centre from a handful of top points, from a small
+part of a top with no side, or from a thin side and a few top points, is taken out of the
+answer and listed with the reasons."""
 
 from __future__ import annotations
 
@@ -50,6 +51,11 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
     if pile.method == "centre" and pile.n_top < options.min_top:
         reasons.append(f"not measurable: a centre from only {pile.n_top} top points (`min_top` "
                        f"{options.min_top}) and {pile.n_side} side points")
+    elif pile.method != "centre" and pile.n_top < options.min_top and (
+            pile.n_side < options.min_side or pile.side_coverage_deg < options.min_coverage_deg):
+        reasons.append(f"not measurable: {pile.n_top} top points (`min_top` {options.min_top}) and a side too "
+                       f"thin to hold the axis ({pile.n_side} points over {pile.side_coverage_deg:.0f} deg; "
+                       f"`min_side` {options.min_side}, `min_coverage_deg` {options.min_coverage_deg:g})")
     elif (pile.n_side < MIN_SIDE and pile.top_coverage is not None
           and pile.top_coverage < MIN_TOP_SHARE):
         reasons.append(f"not measurable: {pile.n_side} side points and only "

@@ -4,7 +4,11 @@ A line sounds a top unevenly (denser where its beams meet the top more squarely,
 toward its shadowed rim), and a plain mean of soundings follows the density: 9 cm off on a
 fully covered top of the real EM3000 line. With ``cell`` the mean is of area instead: each
 sounding counts as the inverse of the soundings in its plan cell, so each covered cell
-counts once (3 cm off on that top).
+counts once (3 cm off on that top). Better still where the soundings reach the rim over
+most of its round, :func:`rim_centre` fits the disc of the pile's radius to the edge of
+the sounded top, which no unevenness inside it moves (2.2 cm off on that top; 0.3-2.5 cm
+on the KMALL strip's tops sounded over 20-98 % of their area, where the area mean is
+5-40 cm off).
 """
 
 from __future__ import annotations
@@ -17,7 +21,8 @@ import numpy as np
 from ..errors import DataError
 from ..grid import cell_key
 
-__all__ = ["centre_method", "top_coverage", "centre_summary", "segment_bias"]
+__all__ = ["RIM_MIN_ARC_DEG", "RIM_MIN_VERTICES", "centre_method", "centre_summary", "rim_centre",
+           "segment_bias", "top_coverage"]
 
 
 def centre_method(top: np.ndarray, *, radius: float, ks: float = 0.1, start: np.ndarray | None = None,
@@ -185,7 +190,8 @@ def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarr
     """The centre method's answer as a summary: ``x, y, z`` (m), ``sigma_xy`` (m, plan
     1-sigma), ``cov`` (2 x 2, m²; the soundings' scatter and :func:`segment_bias` as a
     1-sigma in each direction), ``top_coverage`` (share of the disc seen) and
-    ``segment_bias`` (m).
+    ``segment_bias`` (m). With ``cell`` (the area mean), the plan centre is the rim's
+    (:func:`rim_centre`, its own covariance, no segment bias) where the rim allows.
 
     Parameters are those of :func:`centre_method`.
 
@@ -207,8 +213,86 @@ def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarr
     dict
     """
     c, used, cov = centre_method(top, radius=radius, ks=ks, start=start, groups=groups, cell=cell)
-    bias = segment_bias(top[used], radius)
-    cov = cov + bias**2 * np.eye(2)
+    rim = rim_centre(top[used, :2], c[:2], radius) if cell is not None else None
+    if rim is not None:
+        c = np.r_[rim[0], c[2]]
+        cov, bias = rim[1], 0.0
+    else:
+        bias = segment_bias(top[used], radius)
+        cov = cov + bias**2 * np.eye(2)
     return {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),
             "sigma_xy": math.sqrt(max(float(np.trace(cov)) / 2, 0.0)), "cov": cov,
             "top_coverage": top_coverage(top[used], c, radius), "segment_bias": bias}
+
+
+#: The rim is the top's edge where its soundings' hull meets the disc: a centre from it
+#: needs this many hull vertices spread over :data:`RIM_MIN_ARC_DEG` of the disc's edge.
+RIM_MIN_VERTICES = 6
+RIM_MIN_ARC_DEG = 150.0
+
+
+def rim_centre(xy: np.ndarray, start: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The centre of the disc of ``radius`` whose rim best follows the top soundings' hull.
+
+    The vertices of the convex hull of a top's soundings lie on its rim (plus the noise),
+    however unevenly the top is sounded inside; a chord across an unsounded part leaves
+    vertices inside the disc, which a robust loss sets aside. None when the hull's vertices
+    are too few or span less than :data:`RIM_MIN_ARC_DEG` around ``start``.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (N, 2)
+        The top's soundings in plan (m).
+    start : ndarray, shape (2,)
+        A first centre (the area mean).
+    radius : float
+        The pile's radius (m).
+
+    Returns
+    -------
+    (centre (2,), covariance (2, 2)) or None
+        The covariance from the fit's residuals on the hull (m²).
+
+    Examples
+    --------
+    A top sounded four times as densely on one half, and half a top: the rim keeps the
+    centre where the soundings' mean does not.
+
+    >>> g = np.arange(-0.5, 0.51, 0.02)
+    >>> xy = np.array([(x, y) for x in g for y in g if x * x + y * y <= 0.25])
+    >>> dense = np.vstack([xy] + [xy[xy[:, 0] > 0] + 0.001 * k for k in range(1, 4)])
+    >>> c, cov = rim_centre(dense, dense.mean(axis=0), 0.5)
+    >>> round(float(dense.mean(axis=0)[0]), 2), abs(round(float(c[0]), 2)), abs(round(float(c[1]), 2))
+    (0.13, 0.0, 0.0)
+    >>> half = xy[xy[:, 0] >= 0]
+    >>> c, cov = rim_centre(half, half.mean(axis=0), 0.5)
+    >>> round(float(half.mean(axis=0)[0]), 2), abs(round(float(c[0]), 2))
+    (0.21, 0.01)
+    >>> rim_centre(xy[np.hypot(xy[:, 0] - 0.4, xy[:, 1]) < 0.15], np.zeros(2), 0.5) is None
+    True
+    """
+    from scipy.optimize import least_squares
+    from scipy.spatial import ConvexHull, QhullError
+
+    if len(xy) < RIM_MIN_VERTICES:
+        return None
+    try:
+        v = xy[ConvexHull(xy).vertices]
+    except QhullError:
+        return None
+    if len(v) < RIM_MIN_VERTICES:
+        return None
+    ang = np.sort(np.degrees(np.arctan2(*(v - start).T[::-1])))
+    gaps = np.diff(np.r_[ang, ang[0] + 360.0])
+    if 360.0 - gaps.max() < RIM_MIN_ARC_DEG:
+        return None
+    scale = 0.02
+    fit = least_squares(lambda c: np.hypot(*(v - c).T) - radius, np.asarray(start, float), loss="soft_l1",
+                        f_scale=scale)
+    res = fit.fun
+    s2 = max(float(np.median(np.abs(res))) * 1.4826, 1e-3) ** 2
+    try:
+        cov = s2 * np.linalg.inv(fit.jac.T @ fit.jac)
+    except np.linalg.LinAlgError:
+        return None
+    return fit.x, cov

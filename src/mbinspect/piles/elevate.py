@@ -11,7 +11,8 @@ from ..noise import backscatter_anomaly, robust_sigma
 from ..seabed import GridSurface, grid_seabed
 from ..segment import otsu_threshold
 
-__all__ = ["RING_RADII", "SEPARATION", "elevated_points", "intensity_threshold", "pile_thresholds"]
+__all__ = ["BASE_SPREADS", "RING_RADII", "SEPARATION", "elevated_points", "intensity_threshold", "pile_base",
+           "pile_thresholds"]
 
 
 def elevated_points(points: np.ndarray, *, min_height: float = 1.0, seabed_cell: float = 1.0,
@@ -60,6 +61,75 @@ def elevated_points(points: np.ndarray, *, min_height: float = 1.0, seabed_cell:
     if len(idx):
         mask[idx] = radius_outlier(pts[idx], radius=noise_radius, min_neighbors=noise_neighbors)
     return mask, seabed, height
+
+
+#: A found pile's soundings reach down to this many robust spreads of the seabed's own
+#: heights above its median (and at least :data:`BASE_MIN` m): the part of the side below
+#: ``min_height`` that no seabed sounding reaches.
+BASE_SPREADS = 6.0
+BASE_MIN = 0.3
+
+
+def pile_base(points: np.ndarray, height: np.ndarray, candidates: np.ndarray, labels: np.ndarray, *,
+              radius: float, min_height: float, ground: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Each found pile's soundings below ``min_height``, down to a floor the seabed's noise sets.
+
+    A pile 2 m proud keeps only its upper metre above a 1 m ``min_height``: too short a side
+    for its axis when its top is not sounded. Once the piles are found, the soundings
+    between the floor and ``min_height`` that lie within half a radius (in plan) of a
+    pile's own soundings join that pile. The floor is the seabed soundings' median height
+    plus :data:`BASE_SPREADS` robust spreads (at least :data:`BASE_MIN` m, at most
+    ``min_height``), so it follows the noise of the depth.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    height : ndarray, shape (N,)
+        Height of every sounding above the seabed (m).
+    candidates : ndarray of int
+        Rows of the soundings that ``labels`` label (pile label or -1).
+    labels : ndarray of int
+    radius, min_height : float
+        Pile radius and the candidates' height above the seabed (m).
+    ground : ndarray of bool, shape (N,)
+        The seabed's soundings (within the ground band).
+
+    Returns
+    -------
+    candidates, labels : ndarray
+        With the base soundings added.
+    floor : float
+        The floor used (m above the seabed).
+
+    Examples
+    --------
+    >>> a = np.linspace(0, np.pi, 60)
+    >>> z = np.repeat(np.arange(0.05, 2.0, 0.1), 60)
+    >>> side = np.column_stack([0.5 * np.tile(np.cos(a), 20), 0.5 * np.tile(np.sin(a), 20), z])
+    >>> bed = np.column_stack([np.linspace(3, 9, 200), np.zeros(200), np.tile([-0.02, 0.0, 0.02, 0.01], 50)])
+    >>> pts = np.vstack([side, bed])
+    >>> h = pts[:, 2]
+    >>> cand = np.flatnonzero(h > 1.0)
+    >>> c, lab, floor = pile_base(pts, h, cand, np.zeros(len(cand), int), radius=0.5, min_height=1.0,
+    ...                           ground=np.abs(h) < 0.2)
+    >>> len(cand), len(c), floor
+    (600, 1020, 0.3)
+    """
+    h_ground = height[ground]
+    floor = BASE_MIN
+    if len(h_ground) >= 20:
+        floor = max(BASE_MIN, float(np.median(h_ground)) + BASE_SPREADS * robust_sigma(h_ground))
+    low = np.flatnonzero((height > floor) & (height <= min_height))
+    mine = labels >= 0
+    if floor >= min_height or not len(low) or not mine.any():
+        return candidates, labels, min(floor, min_height)
+    from scipy.spatial import cKDTree
+
+    d, j = cKDTree(points[candidates[mine], :2]).query(points[low, :2], distance_upper_bound=radius / 2)
+    take = np.isfinite(d)
+    taken = set(candidates.tolist())
+    keep = take & np.array([i not in taken for i in low.tolist()], bool)
+    return (np.r_[candidates, low[keep]], np.r_[labels, labels[mine][j[keep]]], floor)
 
 
 #: Backscatter separates structure from seabed only when their medians lie this many

@@ -81,6 +81,12 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     is kept, which is more precise. A wrong fixed radius shifts the centre toward the
     scanned side.
 
+    A top that no beam reached (fewer than 3 top points: a pile sounded on its side only)
+    is taken square to the axis at the one or two top soundings, or at the side's highest
+    three: the centre is where the axis reaches them, the top stands at least that high,
+    and a note says so (before, such a pile fell back to the centre method on those few
+    soundings, 30-40 cm off).
+
     A top plane that leans more than :data:`TOP_LEAN_MARGIN_DEG` beyond ``max_tilt_deg``
     cannot be a pile's top (a few top soundings along one ping let a plane turn about
     their line, and the axis then meets it metres away): the top is taken square to the
@@ -133,7 +139,7 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     Raises
     ------
     DataError
-        Too few points, or no model fits.
+        Too few side points, or no model fits.
 
     Examples
     --------
@@ -146,25 +152,38 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     >>> cyl, plane, centre, *_ = intersection_method(side, nrm, top, radius=0.75)
     >>> np.round(centre, 3).tolist()
     [3.0, 4.0, -16.0]
+
+    The same side with no top sounded: the plan centre holds, the top is a lower bound.
+
+    >>> cyl, plane, centre, s_in, t_in, cov, notes, held = intersection_method(
+    ...     side, nrm, top[:0], radius=0.75)
+    >>> np.round(centre[:2], 3).tolist(), bool(centre[2] < -16.0), notes[0][:15]
+    ([3.0, 4.0], True, 'top not sounded')
     """
     one_of("radius_mode", radius_mode, CHOICES["radius_mode"])
     if radius_mode == "each":  # the piles' joint radius is not this stage's: per pile, it is auto
         radius_mode = "auto"
     s = np.asarray(side, np.float64)
-    t = np.asarray(top, np.float64)
-    if len(t) < 3:
-        raise DataError(f"intersection method: {len(t)} top points, at least 3 needed")
+    t = np.asarray(top, np.float64).reshape(-1, 3)
     if len(s) < 6:
         raise DataError(f"intersection method: {len(s)} side points, at least 6 needed")
     shift = np.r_[s[:, :2].mean(axis=0), 0.0]
     ls, lt = s - shift, t - shift
-    pres = msac(lt, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold / 2,
-                seed=seed, refine=lambda rows, _m: Plane.fit(rows))
-    if pres.model is None:
-        raise DataError("intersection method: no plane fits the top points")
-    plane = pres.model
-    lean = math.degrees(math.acos(min(1.0, abs(float(plane.normal[2])))))
-    level = lean <= max_tilt_deg + TOP_LEAN_MARGIN_DEG
+    sounded = len(t) >= 3
+    if sounded:
+        pres = msac(lt, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold / 2,
+                    seed=seed, refine=lambda rows, _m: Plane.fit(rows))
+        if pres.model is None:
+            raise DataError("intersection method: no plane fits the top points")
+        plane = pres.model
+        lean = math.degrees(math.acos(min(1.0, abs(float(plane.normal[2])))))
+        level = lean <= max_tilt_deg + TOP_LEAN_MARGIN_DEG
+    else:
+        # a top no beam reached: the axis is read where the side's soundings end (or at the
+        # one or two top soundings); the top stands at least that high
+        if len(lt) == 0:
+            lt = ls[np.argsort(ls[:, 2])[-min(3, len(ls)):]]
+        plane, level = Plane(np.median(lt, axis=0), np.array([0.0, 0.0, 1.0])), True
     if start is None:
         res = cylinder_msac(ls, side_normals, radius=radius, threshold=threshold,
                             max_tilt_deg=max_tilt_deg, seed=seed, free_radius=radius_mode != "fixed")
@@ -175,7 +194,7 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     else:
         cyl0 = Cylinder(start.point - shift, start.axis, start.radius)
         inl = np.abs(cyl0.residuals(ls)) <= threshold
-    z_top = float(np.median(lt[pres.inliers, 2] if level else lt[:, 2]))
+    z_top = float(np.median(lt[pres.inliers, 2] if sounded and level else lt[:, 2]))
     g = None if groups is None else np.asarray(groups)
 
     def refit(model: Cylinder, r: float | None, plumb: bool = False
@@ -192,22 +211,24 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
         if (side_coverage(cyl, ls[inl]) < min_free_coverage_deg or not r_sigma <= max_free_sigma
                 or not rejected):
             cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
-    notes = []
+    notes = [] if sounded else [f"top not sounded ({len(t)} top points): the centre is where the axis "
+                                "reaches the highest soundings, the top stands at least that high"]
     plumb = _held_plumb(cyl, cov, refit, ls, z_top, max_tilt_deg,
                         None if radius_mode == "free" or cyl.radius != radius else radius) \
         if axis_mode == "auto" else None
     held = plumb is not None
     if plumb is not None:
         cyl, cov, inl = plumb
-    if not level:
+    if not level or not sounded:
         plane = Plane(np.median(lt, axis=0), cyl.axis if cyl.axis[2] >= 0 else -cyl.axis)
+    if not level:
         notes.append(f"the top points' plane leans {lean:.0f} deg: top taken square to the axis")
     centre = cyl.intersect(plane)
     if centre is None:
         raise DataError("intersection method: the axis is parallel to the top plane")
     out_cyl = Cylinder(cyl.point + shift, cyl.axis, cyl.radius)
     out_plane = Plane(plane.point + shift, plane.normal)
-    top_in = np.abs(plane.residuals(lt)) <= threshold / 2
+    top_in = np.abs(plane.residuals(t - shift)) <= threshold / 2
     return out_cyl, out_plane, centre + shift, inl, top_in, cov, notes, held
 
 

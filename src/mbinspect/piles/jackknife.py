@@ -112,18 +112,23 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
     units, kind = jackknife_units(seg, used)
     if units is None:
         return fit
-    jack = _delete_one(seg, top_m, side_m, normals, fit, options, seed, units)
-    if jack is None:
+    found = _delete_one(seg, top_m, side_m, normals, fit, options, seed, units)
+    if found is None:
         return fit
+    jack, jack_r = found
     sectors = sector_units(seg, used) if kind == "ping blocks" else None
     if sectors is not None:
         by_angle = _delete_one(seg, top_m, side_m, normals, fit, options, seed, sectors)
         if by_angle is not None:
-            jack = jack + by_angle
+            jack, jack_r = jack + by_angle[0], jack_r + by_angle[1]
             kind = "ping blocks and beam-angle sectors"
     cov = np.asarray(fit.cov)[:2, :2] + jack
+    # the free radius is shaken by the same shared errors as the centre
+    r_sigma = math.sqrt(fit.radius_fitted_sigma**2 + jack_r) if math.isfinite(jack_r) \
+        else fit.radius_fitted_sigma
     return replace(fit, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)),
-                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)), jackknife=kind)
+                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)), jackknife=kind,
+                   radius_fitted_sigma=r_sigma)
 
 
 def sector_units(seg: PileSegment, used: np.ndarray) -> np.ndarray | None:
@@ -148,11 +153,13 @@ def sector_units(seg: PileSegment, used: np.ndarray) -> np.ndarray | None:
 
 
 def _delete_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, normals: np.ndarray,
-                fit: PileMeasure, options: PileOptions, seed: int, units: np.ndarray) -> np.ndarray | None:
-    """The delete-one jackknife covariance (2, 2) of the plan centre over ``units`` (None
-    when fewer than :data:`MIN_LINES` of them leave a measurable pile)."""
+                fit: PileMeasure, options: PileOptions, seed: int, units: np.ndarray
+                ) -> tuple[np.ndarray, float] | None:
+    """The delete-one jackknife covariance (2, 2) of the plan centre over ``units`` and the
+    variance of the free radius (NaN where it was not fitted in every case); None when fewer
+    than :data:`MIN_LINES` of them leave a measurable pile."""
     used = top_m | side_m
-    centres = []
+    centres, radii = [], []
     for ln in np.unique(units[used]):
         keep = units != ln
         try:
@@ -161,8 +168,11 @@ def _delete_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, normals
         except DataError:
             continue
         centres.append((m.x, m.y))
+        radii.append(math.nan if m.radius_fitted is None else m.radius_fitted)
     if len(centres) < MIN_LINES:
         return None
     c = np.asarray(centres)
     d = c - c.mean(axis=0)
-    return (len(c) - 1) / len(c) * (d.T @ d)
+    k = (len(c) - 1) / len(c)
+    r = np.asarray(radii)
+    return k * (d.T @ d), k * float(np.sum((r - r.mean()) ** 2))

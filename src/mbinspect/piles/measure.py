@@ -25,7 +25,9 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
 
     The method is ``options.method``; the intersection method falls back to the centre
     method, with a flag saying why, when the side has fewer than 6 points or no cylinder
-    fits. With ``method="both"`` both centres are kept in ``alternatives``.
+    fits; a top with fewer than 3 soundings is no reason to (the axis is read where the
+    side's soundings end, :func:`~mbinspect.piles.intersect.intersection_method`). With
+    ``method="both"`` both centres are kept in ``alternatives``.
 
     Parameters
     ----------
@@ -80,7 +82,7 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
                                 cell=_area_cell(options))
         alternatives["centre"] = centre
     found = None
-    if method in ("intersection", "both") and len(side) >= 6 and len(top) >= 3:
+    if method in ("intersection", "both") and len(side) >= 6:
         try:
             found = _by_intersection(seg, top, side, side_m, side_normals, options, seed, previous)
         except DataError as exc:
@@ -128,7 +130,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
     try:
         free, fcov = fit_cylinder(side[s_in], cyl, radius=None, z_ref=float(centre[2]),
                                   f_scale=options.threshold / 3,
-                                  groups=None if gside is None else gside[s_in])
+                                  groups=None if gside is None else gside[s_in], random_effects=False)
         r_free = free.radius
         r_sigma = math.sqrt(float(fcov[4, 4])) if fcov.shape[0] > 4 and fcov[4, 4] >= 0 else math.nan
     except Exception:

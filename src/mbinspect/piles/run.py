@@ -17,7 +17,7 @@ from ..survey.trace import sources
 from .accept import rejected_record, rejection_reasons
 from .assess import assess_pile, other_method_piles
 from .design import Design, apply_design
-from .elevate import elevated_points, pile_thresholds
+from .elevate import elevated_points, pile_base, pile_thresholds
 from .frame import fit_frames
 from .group import group_piles
 from .iterate import iterate
@@ -148,6 +148,9 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     if not (labels >= 0).any():
         raise DataError("no pile found among the points above the seabed")
     report(0.3)
+    # each found pile's side down to the floor the seabed's noise sets, not only above min_height
+    eidx, labels, _ = pile_base(pts, height, eidx, labels, radius=opts.radius, min_height=opts.min_height,
+                                ground=np.abs(height) < GROUND_BAND)
     thr, backscatter = pile_thresholds(intensity, pts, eidx, labels, np.abs(height) < GROUND_BAND,
                                        opts.radius, beam_angle=cloud.fields.get("beam_angle"), line=line)
     per_point = {name: None if f is None else f[eidx] for name, f in (
