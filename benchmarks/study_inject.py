@@ -13,6 +13,10 @@ pings, soundings per pile, piles found and flagged, spacing error RMS and max ov
 spacings of unflagged piles and over all, the shares within the reported 2σ and 3σ, runs
 stopped and placements over holes. The public files are short (4–67 pings), so few
 soundings reach a pile: the figure that matters is whether what cannot be measured is flagged.
+A file recorded with the vessel holding station (``ets_all_a_y``: 35 pings of an EM2045 within
+0.1 m, 11 m deep) has its pings laid 0.15 m apart along a line (``STATION_STEP``; each keeps
+its own beams, ranges, noise and backscatter; the seabed is then its one profile repeated) and
+gets the row of two piles.
 
 Reefs: four built-in designs (cross1, cross2, hollow and triangle, the last two at 0.7 of
 their size, sunk 0.1 m) on a square of 6 m sides (or half the seabed's width, at least
@@ -134,11 +138,38 @@ def _reef_row(name: str, cloud: PointCloud, side: float, placements: int) -> lis
             f"{100 * np.max(np.abs(dh)):.1f}" if dh else "-", f"{stopped}", f"{unplaced}"]
 
 
+#: Along-track step (m) between the pings of a file recorded with the vessel holding station
+#: (``ets_all_a_y``: 35 pings within 0.1 m), laid out as a line sailed at about 1.5 m/s and
+#: 10 pings a second; each ping keeps its own beams, ranges, noise and backscatter.
+STATION_STEP = 0.15
+
+
+def _spread(cloud: PointCloud) -> PointCloud | None:
+    """The pings of a file recorded holding station laid one :data:`STATION_STEP` apart
+    across their swath, in ping order; None for a file whose pings already move (or fewer
+    than 20 pings)."""
+    ping = cloud.fields.get("ping")
+    if ping is None or len(np.unique(ping)) < 20:
+        return None
+    xy = cloud.xyz[:, :2] - np.median(cloud.xyz[:, :2], axis=0)
+    _, vec = np.linalg.eigh(np.cov(xy.T))
+    along = vec[:, 0]  # square to the swath
+    if np.ptp(np.percentile(xy @ along, [5, 95])) >= 0.5:
+        return None
+    _, k = np.unique(ping, return_inverse=True)
+    xyz = cloud.xyz.copy()
+    xyz[:, :2] += (k.ravel() * STATION_STEP)[:, None] * along[None, :]
+    return PointCloud(xyz, dict(cloud.fields))
+
+
 def _files() -> list[tuple[str, PointCloud, str]]:
-    """The real files the objects can go into, with the layout of their piles."""
+    """The real files the objects can go into, with the layout of their piles; a file
+    recorded holding station with its pings spread along a line (:func:`_spread`)."""
     out = []
     for name, cloud in real_clouds():
         layout = _layout(cloud)
+        if layout is None and (moved := _spread(cloud)) is not None and (layout := _layout(moved)):
+            name, cloud = f"{name[:22]} (pings spread)", moved
         if layout is not None:
             out.append((name, cloud, layout))
     return out
@@ -218,7 +249,7 @@ def main() -> None:
         n = len(piles) * (args.placements - unplaced)
         per_pile = f"{int(np.median(hits))}" if hits else "-"
         pings = len(np.unique(cloud.fields["ping"]))
-        rows.append([name[:30] + (" (row of 2)" if layout == "row" else ""),
+        rows.append([name[:38] + (" (row of 2)" if layout == "row" else ""),
                      f"{-np.median(cloud.xyz[:, 2]):.0f}", f"{pings}", f"{side:.1f}", per_pile,
                      f"{found}/{n}", f"{flagged}", f"{len(err_ok)}", rms(err_ok), mx(err_ok),
                      f"{len(err_all)}", rms(err_all), mx(err_all), f"{len(err_seen)}", mx(err_seen),

@@ -426,15 +426,17 @@ def test_a_design_drawn_in_a_local_frame_is_matched_jacket_by_jacket(wharf):
 
 
 def test_a_quay_wall_is_not_a_pile(capsys, tmp_path):
-    """The real Ostend strip ending on a 6 m quay wall: the wall's candidate (a 0.31 m
-    radius against the 0.75 m prior; its top points' plane leans like the wall, so the top
-    is taken square to the axis) is rejected, named."""
+    """The real Ostend strip ending on a 6 m quay wall: the wall's candidate (a 0.2-0.3 m
+    radius against the 0.75 m prior, a few top points and a side over 25 deg; its top
+    points' plane leans like the wall, so the top is taken square to the axis) is rejected,
+    named."""
     from pathlib import Path
 
     from mbinspect.io import read
 
     path = Path(__file__).parent / "data" / "ets_kmall_OS01_-6133896825737735245.kmall"
-    with pytest.raises(DataError, match=r"is not a pile \(radius 0\.\d\d m against the prior 0\.75 m\)"):
+    with pytest.raises(DataError, match=r"is not a pile \(not measurable: .*, radius 0\.\d\d m against the "
+                                         r"prior 0\.75 m\)"):
         locate_piles(read(path), radius=0.75)
     assert main(["piles", str(path), "--radius", "0.75", "--out", str(tmp_path / "p")]) == 2
     assert "is not a pile" in capsys.readouterr().err

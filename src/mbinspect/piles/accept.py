@@ -44,8 +44,8 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
     --------
     >>> p = PileFit(1, 0.0, 0.0, -20.4, 0.75, 3.8, 0.0, "intersection", 9, 721, 35.0, 0.01, 0.03,
     ...             radius_fitted=0.31)
-    >>> rejection_reasons(p, -11.9, PileOptions(radius=0.75))[0]
-    'top 11.9 m below the seabed around it'
+    >>> [r.split(":")[0].split(" (")[0] for r in rejection_reasons(p, -11.9, PileOptions(radius=0.75))]
+    ['not measurable', 'top 11.9 m below the seabed around it', 'radius 0.31 m against the prior 0.75 m']
     """
     reasons = []
     if pile.method == "centre" and pile.n_top < options.min_top:
@@ -53,9 +53,10 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
                        f"{options.min_top}) and {pile.n_side} side points")
     elif pile.method != "centre" and pile.n_top < options.min_top and (
             pile.n_side < options.min_side or pile.side_coverage_deg < options.min_coverage_deg):
-        reasons.append(f"not measurable: {pile.n_top} top points (`min_top` {options.min_top}) and a side too "
-                       f"thin to hold the axis ({pile.n_side} points over {pile.side_coverage_deg:.0f} deg; "
-                       f"`min_side` {options.min_side}, `min_coverage_deg` {options.min_coverage_deg:g})")
+        reasons.append(f"not measurable: {pile.n_top} top points (`min_top` {options.min_top}) and a side "
+                       f"too thin to hold the axis ({pile.n_side} points over "
+                       f"{pile.side_coverage_deg:.0f} deg; `min_side` {options.min_side}, "
+                       f"`min_coverage_deg` {options.min_coverage_deg:g})")
     elif (pile.n_side < MIN_SIDE and pile.top_coverage is not None
           and pile.top_coverage < MIN_TOP_SHARE):
         reasons.append(f"not measurable: {pile.n_side} side points and only "
