@@ -136,12 +136,39 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
     except Exception:
         pass
     sig = math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0))
+    grad = None if options.radius_mode in ("free",) or cyl.radius != options.radius else \
+        _radius_gradient(side[s_in], cyl, plane, centre, held, gside[s_in] if gside is not None else None)
     return PileMeasure(float(centre[0]), float(centre[1]), float(centre[2]), "intersection", cov[:2, :2],
                        sig, float(np.sqrt(np.mean(r_res**2))), int(t_in.sum()), int(s_in.sum()),
                        coverage=side_coverage(cyl, side[s_in]), top_coverage=None,
                        tilt_deg=cyl.tilt_deg, tilt_azimuth_deg=cyl.tilt_bearing_deg, cylinder=cyl,
                        plane=plane, radius_fitted=r_free, radius_used=cyl.radius, flags=tuple(notes),
-                       radius_fitted_sigma=r_sigma, tilt_held=held)
+                       radius_fitted_sigma=r_sigma, tilt_held=held, radius_gradient=grad)
+
+
+#: The step (m) of the radius for :func:`_radius_gradient`.
+RADIUS_STEP = 0.01
+
+
+def _radius_gradient(side: np.ndarray, cyl: Any, plane: Any, centre: np.ndarray, plumb: bool,
+                     groups: np.ndarray | None) -> tuple[float, float] | None:
+    """How far the plan centre moves per metre of the fixed radius: the side's cylinder
+    refitted :data:`RADIUS_STEP` wider, its axis met with the same top plane."""
+    from ..fit import Cylinder
+
+    try:
+        wider, _ = fit_cylinder(side, Cylinder(cyl.point, cyl.axis, cyl.radius + RADIUS_STEP),
+                                radius=cyl.radius + RADIUS_STEP, z_ref=float(centre[2]), groups=groups,
+                                plumb=plumb, random_effects=False)
+        base, _ = fit_cylinder(side, cyl, radius=cyl.radius, z_ref=float(centre[2]), groups=groups,
+                               plumb=plumb, random_effects=False)
+    except Exception:
+        return None
+    a, b = wider.intersect(plane), base.intersect(plane)
+    if a is None or b is None:
+        return None
+    g = (np.asarray(a)[:2] - np.asarray(b)[:2]) / RADIUS_STEP
+    return float(g[0]), float(g[1])
 
 
 def prune(seg: PileSegment, fit: PileMeasure, *, radius: float, ks: float, threshold: float

@@ -8,20 +8,26 @@ so a prior that is off by a few centimetres is seen even where no single pile co
 it (``radius_mode="auto"`` frees a pile's radius only when its own side rejects the
 prior). When the joint radius rejects the prior, every pile is measured again with it,
 and the result says so; the prior stays in the parameters.
+
+Either way the radius in use is known only so well: to the joint radius's 1-sigma when it
+replaced the prior, and, when the prior stands, to that 1-sigma or as far as the joint
+radius lies from the prior, whichever is larger. :func:`with_radius_sigma` carries that
+into each centre's covariance through the way the centre moves with the radius (about a
+centimetre per centimetre for a pile seen from one side, nothing for one seen all round).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from .results import PileMeasure
 
-__all__ = ["JointRadius", "MIN_PILES", "MIN_SHIFT", "joint_radius"]
+__all__ = ["JointRadius", "MIN_PILES", "MIN_SHIFT", "joint_radius", "with_radius_sigma"]
 
 #: Fewest piles whose free radii make a joint radius.
 MIN_PILES = 2
@@ -96,3 +102,24 @@ def joint_radius(measures: Mapping[int, PileMeasure], prior: float, *, min_cover
     spread = float((w * (ra - mean) ** 2).sum() / (len(ra) - 1))
     sigma = math.sqrt(1.0 / float(w.sum())) * math.sqrt(max(1.0, spread))
     return JointRadius(mean, sigma, len(ra), float(prior), spread)
+
+
+def with_radius_sigma(m: PileMeasure, sigma: float) -> PileMeasure:
+    """``m`` with its plan covariance widened by a radius known to ``sigma`` (m): the
+    centre's gradient with the radius held fixed, squared, times ``sigma`` squared. A pile
+    seen from one side moves about a centimetre toward the sonar for each centimetre of
+    radius too small; a pile seen all round does not move.
+
+    Examples
+    --------
+    >>> from mbinspect.piles import PileMeasure
+    >>> m = PileMeasure(0, 0, 0, "intersection", np.eye(2) * 1e-6, 0.001, 0.0, 50, 500,
+    ...                 radius_gradient=(-1.0, 0.0))
+    >>> round(with_radius_sigma(m, 0.02).sigma_xy, 4)
+    0.0142
+    """
+    g = m.radius_gradient
+    if g is None or not sigma > 0:
+        return m
+    cov = np.asarray(m.cov, float) + sigma**2 * np.outer(g, g)
+    return replace(m, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)))

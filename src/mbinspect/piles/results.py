@@ -68,8 +68,10 @@ class PileMeasure:
     tilt_held : bool
         The data did not show a tilt (95 %): the axis was held plumb, and the plan
         covariance carries the tilt they allow.
-    flags : tuple of str
-        Doubts met while measuring.
+    radius_gradient : tuple of float or None
+        How the plan centre moves per metre of the radius held fixed (a side seen from one
+        direction puts the axis a radius behind it; None when the radius was fitted, or
+        for a plain mean of the top).
     alternatives : dict
         With both methods, each method's centre (``x, y, z, sigma_xy`` and, for the
         centre method, ``cov`` and ``top_coverage``).
@@ -105,6 +107,7 @@ class PileMeasure:
     jackknife: str = ""
     radius_fitted_sigma: float = math.nan
     tilt_held: bool = False
+    radius_gradient: tuple[float, float] | None = None
 
     @property
     def centre(self) -> np.ndarray:

@@ -22,7 +22,7 @@ from .frame import fit_frames
 from .group import group_piles
 from .iterate import iterate
 from .options import PileOptions
-from .radius import JointRadius, joint_radius
+from .radius import JointRadius, joint_radius, with_radius_sigma
 from .results import PileFit, PileResult, Spacing
 from .separate import separate_piles
 from .space import spacings
@@ -158,24 +158,35 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
         ("sigma_h", cloud.fields.get("sigma_h")))}
     files = cloud.meta.get("files") or [cloud.source or "(array)"]
 
-    def judged(o: PileOptions) -> _Judged:
-        """Every candidate segmented, measured, judged and kept or set aside, with ``o``."""
-        segs, side_n, seg_info = segment_piles(pts[eidx], labels, o, intensity=backscatter,
-                                               intensity_threshold=thr, **per_point)
-        fits, iterations, unmeasured = iterate(segs, side_n, o, report)
+    def judged(o: PileOptions, measured: tuple[Any, ...] | None = None, radius_sigma: float = 0.0) -> _Judged:
+        """Every candidate segmented, measured (or ``measured`` again), judged and kept or
+        set aside, with ``o``; each centre's covariance takes ``radius_sigma`` through the
+        way it moves with the radius."""
+        if measured is None:
+            segs, side_n, seg_info = segment_piles(pts[eidx], labels, o, intensity=backscatter,
+                                                   intensity_threshold=thr, **per_point)
+            fits, iterations, unmeasured = iterate(segs, side_n, o, report)
+        else:
+            segs, seg_info, fits, iterations, unmeasured = measured
+        fits = {pid: with_radius_sigma(m, radius_sigma) for pid, m in fits.items()}
         piles = tuple(replace(assess_pile(pid, fits[pid], o), sources=sources(
             eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
         return _Judged(segs, seg_info, fits, iterations, unmeasured, *_standing(piles, seabed, o))
 
     j = judged(opts)
-    # the joint radius of the candidates that stand as piles (a wall's radius is no pile's)
+    # the joint radius of the candidates that stand as piles (a wall's radius is no pile's),
+    # every side counting by its own sigma: on a line that sees each pile over 30-60 deg
+    # only, those loose radii together still catch a prior 5 cm off (ets_all_a_y)
     joint = joint_radius({old: j.fits[old] for old in j.kept.values()}, opts.radius,
-                         min_coverage_deg=opts.min_coverage_deg) if opts.radius_mode == "auto" else None
+                         min_coverage_deg=0.0) if opts.radius_mode == "auto" else None
     if joint is not None and joint.rejects_prior:
         # the piles share a radius the prior is not: all of them measured again with it
         opts = opts.replace(radius=joint.radius, radius_mode="fixed")
-        j = judged(opts)
+        j = judged(opts, radius_sigma=joint.sigma)
         warnings.append(joint.note)
+    elif joint is not None:
+        # the prior stands, known as well as the data know the radius, or as far off as they put it
+        j = judged(opts, j[:5], radius_sigma=max(joint.sigma, abs(joint.radius - joint.prior)))
     segs, seg_info, fits, iterations, unmeasured, piles, kept, rejected = j
     for pid, why in unmeasured.items():
         c = segs[pid].points.mean(axis=0)
