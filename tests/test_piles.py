@@ -706,3 +706,14 @@ def test_a_pile_sounded_on_its_side_only_is_measured_from_its_side():
         assert math.hypot(p.x - t["x"], p.y - t["y"]) < min(0.03, 2 * p.sigma_xy)
         assert any(f.startswith("few top points") for f in p.flags)
     assert all(p.sigma_xy < 0.05 for p in res.piles)
+    # told a radius 5 cm off either way, the piles' joint radius replaces it; every spacing,
+    # with the prior or without, lies within 2 sigma (which carries the radius's own 1 sigma)
+    for prior in (0.45, 0.5, 0.55):
+        run = res if prior == 0.5 else locate_piles(PointCloud(inj.xyz, dict(cloud.fields)), count=4,
+                                                    radius=prior, seed=0)
+        joint = run.parameters["joint_radius"]
+        assert abs(joint["radius"] - 0.5) < 0.015 and joint["rejects_prior"] == (prior != 0.5)
+        by_id = {p.id: p for p in run.piles}
+        for sp in run.spacings:
+            a, b = near(by_id[sp.a]), near(by_id[sp.b])
+            assert abs(sp.distance - math.hypot(a["x"] - b["x"], a["y"] - b["y"])) < 2 * sp.sigma
