@@ -236,6 +236,11 @@ def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
     assert "Piles by the centre method" in page
     for name in ("piles.csv", "spacings.csv"):
         assert b"\r\n" not in (out / name).read_bytes()
+    # each spacing's 95 % interval, in the JSON and the CSV
+    sp = d["spacings"][0]
+    assert sp["low_95"] == pytest.approx(sp["distance"] - 1.96 * sp["sigma"])
+    assert sp["low_95"] < sp["distance"] < sp["high_95"]
+    assert "low_95,high_95" in (out / "spacings.csv").read_text().splitlines()[0]
     # parameters: the options, the input file and the command line
     params = d["parameters"]
     assert params["radius"] == 0.75 and params["method"] == "both" and params["count"] == 4

@@ -169,7 +169,14 @@ class Spacing:
 
     ``verdict`` decides at 95 %: ``pass`` when |deviation| + 1.96 sigma is within the
     tolerance, ``fail`` when |deviation| - 1.96 sigma exceeds it, else ``undecided``;
-    ``passed`` is True, False or None accordingly (None also without a design).
+    ``passed`` is True, False or None accordingly (None also without a design). The JSON
+    row adds the distance's 95 % interval, ``low_95`` and ``high_95`` (distance ∓ 1.96 sigma).
+
+    Examples
+    --------
+    >>> d = Spacing(1, 2, 22.004, 0.005).to_dict()
+    >>> round(d["low_95"], 4), round(d["high_95"], 4)
+    (21.9942, 22.0138)
     """
 
     a: int
@@ -186,7 +193,8 @@ class Spacing:
     def to_dict(self) -> dict[str, Any]:
         """One row of ``spacings`` in ``piles.json``."""
         return to_jsonable({"group": self.group, "a": self.a, "b": self.b, "distance": self.distance,
-                            "sigma": self.sigma, "design": self.design,
+                            "sigma": self.sigma, "low_95": self.distance - 1.96 * self.sigma,
+                            "high_95": self.distance + 1.96 * self.sigma, "design": self.design,
                             "deviation": self.deviation, "verdict": self.verdict, "pass": self.passed,
                             "method": self.method})
 

@@ -155,7 +155,8 @@ _PILE_COLS = ["id", "group", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_
               "n_top", "n_side", "side_coverage_deg", "rms", "sigma_xy", "flags"]
 
 
-_SPACING_COLS = ["group", "a", "b", "distance", "sigma", "design", "deviation", "verdict", "pass", "method"]
+_SPACING_COLS = ["group", "a", "b", "distance", "sigma", "low_95", "high_95", "design", "deviation",
+                 "verdict", "pass", "method"]
 
 
 _FRAME_COLS = ["id", "dx", "dy", "miss", "sigma", "miss_95", "verdict"]
@@ -178,7 +179,8 @@ def _spacing_row(s: Any) -> dict[str, Any]:
     return {"pair": f"{s.a}–{s.b}", "distance": f"{s.distance:.3f}",
             "design": "" if s.design is None else f"{s.design:.3f}",
             "deviation": "" if dev is None else f"{dev:+.1f}", "sigma": f"{1000 * s.sigma:.1f}",
-            "interval": "" if dev is None else f"{dev - 1960 * s.sigma:+.1f} … {dev + 1960 * s.sigma:+.1f}",
+            "interval": f"±{1960 * s.sigma:.1f}" if dev is None
+            else f"{dev - 1960 * s.sigma:+.1f} … {dev + 1960 * s.sigma:+.1f}",
             "verdict": s.verdict or ""}
 
 
