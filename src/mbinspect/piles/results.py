@@ -66,7 +66,7 @@ class PileMeasure:
     radius_fitted_sigma : float
         The 1-sigma of ``radius_fitted`` (m), cluster-robust by ping (NaN: none).
     tilt_held : bool
-        The data did not show a tilt (95 %): the axis was held plumb, and the plan
+        The data did not show a tilt (99.9 %): the axis was held plumb, and the plan
         covariance carries the tilt they allow.
     radius_gradient : tuple of float or None
         How the plan centre moves per metre of the radius held fixed (a side seen from one
