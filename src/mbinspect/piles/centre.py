@@ -230,6 +230,10 @@ def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarr
 RIM_MIN_VERTICES = 6
 RIM_MIN_ARC_DEG = 150.0
 
+#: Scale (m) of the rim fit's robust loss: a hull vertex further than this from the rim
+#: (one on a chord across an unsounded part) counts less and less.
+RIM_LOSS_SCALE = 0.02
+
 
 def rim_centre(xy: np.ndarray, start: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray] | None:
     """The centre of the disc of ``radius`` whose rim best follows the top soundings' hull.
@@ -286,9 +290,8 @@ def rim_centre(xy: np.ndarray, start: np.ndarray, radius: float) -> tuple[np.nda
     gaps = np.diff(np.r_[ang, ang[0] + 360.0])
     if 360.0 - gaps.max() < RIM_MIN_ARC_DEG:
         return None
-    scale = 0.02
     fit = least_squares(lambda c: np.hypot(*(v - c).T) - radius, np.asarray(start, float), loss="soft_l1",
-                        f_scale=scale)
+                        f_scale=RIM_LOSS_SCALE)
     res = fit.fun
     s2 = max(float(np.median(np.abs(res))) * 1.4826, 1e-3) ** 2
     try:

@@ -125,11 +125,10 @@ def pile_base(points: np.ndarray, height: np.ndarray, candidates: np.ndarray, la
         return candidates, labels, min(floor, min_height)
     from scipy.spatial import cKDTree
 
+    # the candidates stand above min_height, so none of them is among these
     d, j = cKDTree(points[candidates[mine], :2]).query(points[low, :2], distance_upper_bound=radius / 2)
-    take = np.isfinite(d)
-    taken = set(candidates.tolist())
-    keep = take & np.array([i not in taken for i in low.tolist()], bool)
-    return (np.r_[candidates, low[keep]], np.r_[labels, labels[mine][j[keep]]], floor)
+    keep = np.isfinite(d)
+    return np.r_[candidates, low[keep]], np.r_[labels, labels[mine][j[keep]]], floor
 
 
 #: Backscatter separates structure from seabed only when their medians lie this many

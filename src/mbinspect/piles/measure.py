@@ -136,7 +136,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
     except Exception:
         pass
     sig = math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0))
-    grad = None if options.radius_mode in ("free",) or cyl.radius != options.radius else \
+    grad = None if options.radius_mode == "free" or cyl.radius != options.radius else \
         _radius_gradient(side[s_in], cyl, plane, centre, held, gside[s_in] if gside is not None else None)
     return PileMeasure(float(centre[0]), float(centre[1]), float(centre[2]), "intersection", cov[:2, :2],
                        sig, float(np.sqrt(np.mean(r_res**2))), int(t_in.sum()), int(s_in.sum()),
