@@ -55,8 +55,30 @@ __all__ = [
     "check_read_options",
     "pipeline_input",
     "CloudSummary",
+    "crs_name",
     "describe",
 ]
+
+
+def crs_name(crs: str | None, *, epsg: bool = True) -> str | None:
+    """The name of a CRS (WKT or any pyproj input), with its EPSG code unless ``epsg`` is
+    False; None for None; the text's first 40 characters for a CRS pyproj cannot read.
+
+    Examples
+    --------
+    >>> crs_name("EPSG:32631"), crs_name("EPSG:32631", epsg=False), crs_name(None)
+    ('WGS 84 / UTM zone 31N (EPSG:32631)', 'WGS 84 / UTM zone 31N', None)
+    """
+    if crs is None:
+        return None
+    try:
+        from pyproj import CRS
+
+        c = CRS.from_user_input(crs)
+    except Exception:
+        return crs[:40]
+    code = c.to_epsg() if epsg else None
+    return str(c.name) + (f" (EPSG:{code})" if code else "")
 
 #: Recognised formats and the extensions that select them.
 FORMATS: dict[str, tuple[str, ...]] = {
@@ -842,19 +864,12 @@ def describe(cloud: PointCloud, *, cell: float | None = None, seed: int = 0) -> 
     ij = np.floor(xy / used).astype(np.int64)
     keys = ij[:, 0] * (int((hi[1] - lo[1]) / used) + 2) + ij[:, 1]
     area = float(len(np.unique(keys))) * used * used
-    crs_name = None
-    if cloud.crs:
-        try:
-            from pyproj import CRS
-
-            crs_name = CRS.from_user_input(cloud.crs).name
-        except Exception:
-            crs_name = None
     return CloudSummary(
         source=cloud.source, n_points=len(cloud),
         bounds_min=tuple(float(v) for v in lo), bounds_max=tuple(float(v) for v in hi),  # type: ignore[arg-type]
         fields=tuple(cloud.fields), area=area, density=len(cloud) / area, spacing=spacing,
-        cell=used, crs=cloud.crs, z_convention=cloud.z_convention, crs_name=crs_name,
+        cell=used, crs=cloud.crs, z_convention=cloud.z_convention,
+        crs_name=crs_name(cloud.crs, epsg=False) if cloud.crs else None,
         sonar=_sonar_summary(cloud),
     )
 

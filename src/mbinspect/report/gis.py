@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ..io import crs_name
 from ..outputs import atomic_path
 
 __all__ = ["crs_of", "crs_label", "crs_name", "lonlat_transform", "write_geojson", "write_gis"]
@@ -22,30 +23,6 @@ def crs_label(result: Any) -> str:
     """A line naming a result's CRS, or saying there is none."""
     name = crs_name(crs_of(result))
     return name or "the input's own coordinates (no CRS given: give --crs to place them on a map)"
-
-
-def crs_name(crs: str | None) -> str | None:
-    """The name of a CRS (WKT or any pyproj input), with its EPSG code; None for None.
-
-    Parameters
-    ----------
-    crs : str or None
-
-    Returns
-    -------
-    str or None
-
-    Examples
-    --------
-    >>> crs_name("EPSG:32631")
-    'WGS 84 / UTM zone 31N (EPSG:32631)'
-    """
-    if crs is None:
-        return None
-    from pyproj import CRS
-
-    c = CRS.from_user_input(crs)
-    return c.name + (f" (EPSG:{c.to_epsg()})" if c.to_epsg() else "")
 
 
 def lonlat_transform(crs: str | None) -> Any:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FileAccessError, InputError
-from ..io import FORMATS, SONAR_FORMATS, PointCloud, format_from_path, read
+from ..io import FORMATS, SONAR_FORMATS, PointCloud, crs_name, format_from_path, read
 
 __all__ = ["expand_inputs", "read_survey", "survey_lines", "READ_OPTIONS"]
 
@@ -137,8 +137,8 @@ def read_survey(paths: Sequence[str | os.PathLike[str]], *, progress: Callable[[
         if k == 0:
             first_crs = c.crs
         elif not same_crs(c.crs, first_crs):
-            raise InputError(f"{f}: its CRS ({_crs_name(c.crs)}) differs from {files[0]}'s "
-                             f"({_crs_name(first_crs)}); expected every file of a survey in one CRS "
+            raise InputError(f"{f}: its CRS ({crs_name(c.crs) or 'none'}) differs from {files[0]}'s "
+                             f"({crs_name(first_crs) or 'none'}); expected every file of a survey in one CRS "
                              "(give --crs)")
         clouds.append(c)
         if progress is not None:
@@ -178,14 +178,3 @@ def same_crs(a: str | None, b: str | None) -> bool:
         return bool(CRS.from_user_input(a) == CRS.from_user_input(b))
     except Exception:  # an unparsable CRS is only equal to itself
         return False
-
-
-def _crs_name(crs: str | None) -> str:
-    if crs is None:
-        return "none"
-    try:
-        from pyproj import CRS
-
-        return str(CRS.from_user_input(crs).name)
-    except Exception:
-        return crs[:40]
