@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
@@ -117,7 +118,9 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     close = np.zeros((ny, nx), dtype=bool)
     close[cj[ok], ci[ok]] = d[ok] <= own_c[comp[cj[ok], ci[ok]]] + TIE
     if height is not None and wall > 0:
-        _wall_rule(points, is_reef, height, wall, idx, k, ok, cj, ci, centres, comp, close, lo, cell, r)
+        rows = np.flatnonzero(ok)
+        _wall_rule(points, is_reef, height, wall, _Cells(cj, ci, centres, rows, idx[k[rows]]),
+                   _Raster(lo, cell, comp, r), close)
     core = reef & close
     # bridge the gaps between pings inside a reef; closing does not grow outer edges
     closed = np.zeros_like(core)
@@ -147,9 +150,29 @@ def _in_cells(points: np.ndarray, mask: np.ndarray, lo: np.ndarray, cell: float)
     return idx[mask[pj[idx], pi[idx]]]
 
 
-def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall: float, idx: np.ndarray,
-               k: np.ndarray, ok: np.ndarray, cj: np.ndarray, ci: np.ndarray, centres: np.ndarray,
-               comp: np.ndarray, close: np.ndarray, lo: np.ndarray, cell: float, r: int) -> None:
+class _Cells(NamedTuple):
+    """The candidate cells (rows ``cj``, columns ``ci``, ``centres`` in m) and, for those
+    with a sounding within reach (``rows`` of them), that nearest sounding (``src``)."""
+
+    cj: np.ndarray
+    ci: np.ndarray
+    centres: np.ndarray
+    rows: np.ndarray
+    src: np.ndarray
+
+
+class _Raster(NamedTuple):
+    """The footprint raster: its corner ``lo`` (m), ``cell`` (m), the candidate regions'
+    labels ``comp`` and the reach in cells ``r``."""
+
+    lo: np.ndarray
+    cell: float
+    comp: np.ndarray
+    r: int
+
+
+def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall: float, cells: _Cells,
+               raster: _Raster, close: np.ndarray) -> None:
     """A sounding on a reef's side wall marks the edge itself: of the cells nearest to it,
     only those on the reef's side of it (up the height gradient) are reef (``close`` is
     set in place).
@@ -158,13 +181,13 @@ def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall
     computed in a window around each candidate region, padded beyond what the filters
     reach and cut at the raster's edge as the raster itself is: the same values as over
     the whole raster, in memory that follows the reefs, not the tile."""
+    lo, cell, comp, r = raster
+    cj, ci, centres, rows, src = cells
     ny, nx = comp.shape
     ri = np.flatnonzero(is_reef)
     ri_i, ri_j = cell_index(points[ri], lo[0], lo[1], cell)
     ri_i, ri_j = np.clip(ri_i, 0, nx - 1), np.clip(ri_j, 0, ny - 1)
     w = max(1, int(round(0.4 / cell)))
-    rows = np.flatnonzero(ok)
-    src = idx[k[rows]]
     si, sj = cell_index(points[src], lo[0], lo[1], cell)
     si, sj = np.clip(si, 0, nx - 1), np.clip(sj, 0, ny - 1)
     label = comp[cj[rows], ci[rows]]
