@@ -164,7 +164,7 @@ def _delete_one(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, normals
         keep = units != ln
         try:
             m = measure_pile(seg, top_m & keep, side_m & keep, normals[keep[side_m]], options=options,
-                             seed=seed, previous=fit)
+                             seed=seed, previous=fit, gradient=False)
         except DataError:
             continue
         centres.append((m.x, m.y))

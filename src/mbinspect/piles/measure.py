@@ -20,7 +20,8 @@ __all__ = ["measure_pile", "prune"]
 
 
 def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_normals: np.ndarray, *,
-                 options: PileOptions, seed: int, previous: PileMeasure | None = None) -> PileMeasure:
+                 options: PileOptions, seed: int, previous: PileMeasure | None = None,
+                 gradient: bool = True) -> PileMeasure:
     """One pile's top centre from its current top and side points.
 
     The method is ``options.method``; the intersection method falls back to the centre
@@ -42,6 +43,9 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
         Seed of this pile's MSAC.
     previous : PileMeasure, optional
         The previous iteration's measure: its centre and cylinder are the starts.
+    gradient : bool
+        Find how the centre moves with the radius (``radius_gradient``); a jackknife's
+        delete-one measures, which need only the centre, skip it.
 
     Examples
     --------
@@ -84,7 +88,7 @@ def measure_pile(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, side_n
     found = None
     if method in ("intersection", "both") and len(side) >= 6:
         try:
-            found = _by_intersection(seg, top, side, side_m, side_normals, options, seed, previous)
+            found = _by_intersection(seg, top, side, side_m, side_normals, options, seed, previous, gradient)
         except DataError as exc:
             flags.append(f"intersection method failed ({exc}); centre method used")
         else:
@@ -116,7 +120,7 @@ def _area_cell(options: PileOptions) -> float | None:
 
 def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m: np.ndarray,
                      side_normals: np.ndarray, options: PileOptions, seed: int,
-                     previous: PileMeasure | None) -> PileMeasure:
+                     previous: PileMeasure | None, gradient: bool = True) -> PileMeasure:
     """The intersection method's measure of one pile (raises DataError when it cannot)."""
     gside = None if seg.ping is None else seg.ping[side_m]
     cyl, plane, centre, s_in, t_in, cov, notes, held = intersection_method(
@@ -136,7 +140,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
     except Exception:
         pass
     sig = math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0))
-    grad = None if options.radius_mode == "free" or cyl.radius != options.radius else \
+    grad = None if not gradient or options.radius_mode == "free" or cyl.radius != options.radius else \
         _radius_gradient(side[s_in], cyl, plane, centre, held, gside[s_in] if gside is not None else None)
     return PileMeasure(float(centre[0]), float(centre[1]), float(centre[2]), "intersection", cov[:2, :2],
                        sig, float(np.sqrt(np.mean(r_res**2))), int(t_in.sum()), int(s_in.sum()),
