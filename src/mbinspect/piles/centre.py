@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..grid import cell_key
+from .results import plan_sigma
 
 __all__ = ["RIM_MIN_ARC_DEG", "RIM_MIN_VERTICES", "centre_method", "centre_summary", "rim_centre",
            "segment_bias", "top_coverage"]
@@ -221,7 +222,7 @@ def centre_summary(top: np.ndarray, *, radius: float, ks: float, start: np.ndarr
         bias = segment_bias(top[used], radius)
         cov = cov + bias**2 * np.eye(2)
     return {"x": float(c[0]), "y": float(c[1]), "z": float(c[2]),
-            "sigma_xy": math.sqrt(max(float(np.trace(cov)) / 2, 0.0)), "cov": cov,
+            "sigma_xy": plan_sigma(cov), "cov": cov,
             "top_coverage": top_coverage(top[used], c, radius), "segment_bias": bias}
 
 

@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import DataError
 from .measure import measure_pile
 from .options import PileOptions
-from .results import PileMeasure, PileSegment
+from .results import PileMeasure, PileSegment, plan_sigma
 
 __all__ = ["line_jackknife", "MIN_LINES", "PING_BLOCKS", "SECTORS"]
 
@@ -126,8 +126,7 @@ def line_jackknife(seg: PileSegment, top_m: np.ndarray, side_m: np.ndarray, norm
     # the free radius is shaken by the same shared errors as the centre
     r_sigma = math.sqrt(fit.radius_fitted_sigma**2 + jack_r) if math.isfinite(jack_r) \
         else fit.radius_fitted_sigma
-    return replace(fit, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)),
-                   line_sigma_xy=math.sqrt(max(float(jack[0, 0] + jack[1, 1]) / 2, 0.0)), jackknife=kind,
+    return replace(fit, cov=cov, sigma_xy=plan_sigma(cov), line_sigma_xy=plan_sigma(jack), jackknife=kind,
                    radius_fitted_sigma=r_sigma)
 
 

@@ -13,7 +13,7 @@ from ..fit import fit_cylinder
 from .centre import centre_summary
 from .intersect import intersection_method, side_coverage
 from .options import PileOptions
-from .results import PileMeasure, PileSegment
+from .results import PileMeasure, PileSegment, plan_sigma
 from .weights import side_sigma
 
 __all__ = ["measure_pile", "prune"]
@@ -139,7 +139,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
         r_sigma = math.sqrt(float(fcov[4, 4])) if fcov.shape[0] > 4 and fcov[4, 4] >= 0 else math.nan
     except Exception:
         pass
-    sig = math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0))
+    sig = plan_sigma(cov)
     grad = None if not gradient or options.radius_mode == "free" or cyl.radius != options.radius else \
         _radius_gradient(side[s_in], cyl, plane, centre, held, gside[s_in] if gside is not None else None)
     return PileMeasure(float(centre[0]), float(centre[1]), float(centre[2]), "intersection", cov[:2, :2],

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .results import PileMeasure
+from .results import PileMeasure, plan_sigma
 
 __all__ = ["JointRadius", "MIN_PILES", "MIN_SHIFT", "joint_radius", "with_radius_sigma"]
 
@@ -122,4 +122,4 @@ def with_radius_sigma(m: PileMeasure, sigma: float) -> PileMeasure:
     if g is None or not sigma > 0:
         return m
     cov = np.asarray(m.cov, float) + sigma**2 * np.outer(g, g)
-    return replace(m, cov=cov, sigma_xy=math.sqrt(max(float(cov[0, 0] + cov[1, 1]) / 2, 0.0)))
+    return replace(m, cov=cov, sigma_xy=plan_sigma(cov))

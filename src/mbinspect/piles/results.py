@@ -17,7 +17,20 @@ from ..fit import Cylinder, Plane
 from ..outputs import to_jsonable
 from ..seabed import GridSurface
 
-__all__ = ["PileSegment", "PileMeasure", "PileFit", "Spacing", "FrameFit", "PileResult"]
+__all__ = ["PileSegment", "PileMeasure", "PileFit", "Spacing", "FrameFit", "PileResult", "plan_sigma"]
+
+
+def plan_sigma(cov: np.ndarray) -> float:
+    """A plan centre's 1-sigma (m) from its covariance (the first two rows and columns):
+    the root of the mean of the two variances.
+
+    Examples
+    --------
+    >>> plan_sigma(np.diag([9e-6, 16e-6, 1.0])) == math.sqrt(12.5e-6)
+    True
+    """
+    c = np.asarray(cov, np.float64)
+    return math.sqrt(max(float(c[0, 0] + c[1, 1]) / 2, 0.0))
 
 
 @dataclass(frozen=True, eq=False)

@@ -149,9 +149,10 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
         raise DataError("no pile found among the points above the seabed")
     report(0.3)
     # each found pile's side down to the floor the seabed's noise sets, not only above min_height
+    ground = np.abs(height) < GROUND_BAND
     eidx, labels, _ = pile_base(pts, height, eidx, labels, radius=opts.radius, min_height=opts.min_height,
-                                ground=np.abs(height) < GROUND_BAND)
-    thr, backscatter = pile_thresholds(intensity, pts, eidx, labels, np.abs(height) < GROUND_BAND,
+                                ground=ground)
+    thr, backscatter = pile_thresholds(intensity, pts, eidx, labels, ground,
                                        opts.radius, beam_angle=cloud.fields.get("beam_angle"), line=line)
     per_point = {name: None if f is None else f[eidx] for name, f in (
         ("ping", ping), ("line", line), ("beam_angle", cloud.fields.get("beam_angle")),
