@@ -33,10 +33,50 @@ CASES: dict[str, tuple[str, dict, dict]] = {
 }
 SEEDS = (1, 2, 3)
 TOLERANCE = 5e-4
+#: cases run once (seed 1): a tiled reef survey on two local workers and piles injected
+#: into a real EM3000 line
+ONCE = ("tiled-reefs", "injected-piles")
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
+
+
+def _tiled_reefs(seed: int) -> dict[str, Any]:
+    import tempfile
+
+    from mbinspect.reefs import ReefOptions
+    from mbinspect.simulate import simulate_lines
+    from mbinspect.survey import expand_inputs
+    from mbinspect.survey.run import SurveyOptions, run_survey
+
+    with tempfile.TemporaryDirectory() as tmp:
+        simulate_lines("reef-field", tmp, seed=seed, groups="cross2,cross1,cross1,cross2", per_group=9,
+                       ping_spacing=0.8, close_pairs=1)
+        run = run_survey("reefs", expand_inputs([tmp]), ReefOptions(seabed="grid"),
+                         SurveyOptions(tiled=True, tile_size=130.0, workers=1))
+    d = run.result.to_dict()
+    for r in d["reefs"]:  # temporary file names
+        r.pop("sources", None)
+    return d
+
+
+def _injected_piles(seed: int) -> dict[str, Any]:
+    from mbinspect.inject import InjectedPile, inject
+    from mbinspect.io import PointCloud, read
+
+    cloud = read(DATA / "pdal_mbf_em300raw.mb56")
+    cx, cy = cloud.xyz[:, :2].mean(axis=0)
+    piles = [InjectedPile(1, cx - 2.5, cy, 0.5, height=2.0), InjectedPile(2, cx + 2.5, cy, 0.5, height=2.0)]
+    inj = inject(cloud.xyz, cloud.fields, piles=piles)
+    fields = {k: v for k, v in cloud.fields.items()}
+    out = PointCloud(inj.xyz, fields, crs=cloud.crs)
+    return locate_piles(out, count=2, radius=0.5, seed=seed).to_dict()
 
 
 def run_case(job: tuple[str, int]) -> tuple[str, dict[str, Any]]:
     name, seed = job
+    if name in ONCE:
+        d = _tiled_reefs(seed) if name == "tiled-reefs" else _injected_piles(seed)
+        d.pop("parameters", None)
+        return f"{name}-{seed}", json.loads(json.dumps(d))
     preset, sim_kw, kw = CASES[name]
     sim = simulate(preset, seed=seed, **sim_kw)
     if preset == "jacket":
@@ -86,7 +126,7 @@ def main(argv: list[str]) -> int:
         print(__doc__)
         return 2
     folder = Path(argv[1])
-    jobs = [(c, s) for c in CASES for s in SEEDS]
+    jobs = [(c, s) for c in CASES for s in SEEDS] + [(c, 1) for c in ONCE]
     with ProcessPoolExecutor(2) as pool:
         results = dict(pool.map(run_case, jobs))
     if argv[0] == "record":
