@@ -10,7 +10,7 @@ import pytest
 from mbinspect import ascii as mascii
 from mbinspect import io as mio
 from mbinspect.checks import check_points
-from mbinspect.errors import FileAccessError, InputError, ParameterError
+from mbinspect.errors import FileAccessError, InputError, NotEnoughPointsError, ParameterError
 from mbinspect.io import InputWarning, PointCloud, describe, read, write
 
 
@@ -204,5 +204,5 @@ def test_describe_density_and_spacing():
 def test_check_points_rejects_bad_arrays():
     with pytest.raises(ParameterError, match=r"\(N, 3\)"):
         check_points(np.zeros((4, 2)))
-    with pytest.raises(mio.NotEnoughPointsError, match="at least 5"):
+    with pytest.raises(NotEnoughPointsError, match="at least 5"):
         check_points(np.zeros((4, 3)), minimum=5)

@@ -9,8 +9,8 @@ from __future__ import annotations
 from typing import Any
 
 from .errors import MBInspectError
+from .version import __version__
 
-__version__ = "0.1.0"
 __all__ = ["MBInspectError", "PointCloud", "read", "write", "__version__"]
 
 

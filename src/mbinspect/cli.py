@@ -25,7 +25,6 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, NoReturn
 
-from . import __version__
 from .cli_survey import (
     add_inputs,
     add_soundings_parser,
@@ -37,6 +36,7 @@ from .cli_survey import (
     survey_options,
 )
 from .errors import MBInspectError, ParameterError
+from .version import __version__
 
 __all__ = ["main", "run", "build_parser"]
 

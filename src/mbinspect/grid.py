@@ -6,6 +6,8 @@ cell ``(i, j)`` spans ``x0 + i * cell .. x0 + (i + 1) * cell`` east and likewise
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from scipy import ndimage
 
@@ -402,3 +404,11 @@ def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0,
     pick = xy if len(xy) <= sample else xy[np.random.default_rng(seed).choice(len(xy), sample, replace=False)]
     d, _ = tree.query(pick, k=k + 1, workers=-1)
     return float(np.median(d[:, k]))
+
+
+def machine_memory() -> int:
+    """The machine's physical memory in bytes."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # not POSIX: assume 8 GB
+        return 8 << 30

@@ -33,7 +33,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -41,8 +41,8 @@ from typing import Any
 import numpy as np
 
 from .ascii import DELIMITERS, DEPTH_NAMES, ELEVATION_NAMES, parse_columns, read_ascii
-from .checks import check_points
-from .errors import FileAccessError, InputError, InputWarning, NotEnoughPointsError, ParameterError
+from .cloud import PointCloud, crs_name, pipeline_input
+from .errors import FileAccessError, InputError, InputWarning, ParameterError
 from .outputs import atomic_path, dataclasses_asdict
 
 __all__ = [
@@ -60,25 +60,6 @@ __all__ = [
 ]
 
 
-def crs_name(crs: str | None, *, epsg: bool = True) -> str | None:
-    """The name of a CRS (WKT or any pyproj input), with its EPSG code unless ``epsg`` is
-    False; None for None; the text's first 40 characters for a CRS pyproj cannot read.
-
-    Examples
-    --------
-    >>> crs_name("EPSG:32631"), crs_name("EPSG:32631", epsg=False), crs_name(None)
-    ('WGS 84 / UTM zone 31N (EPSG:32631)', 'WGS 84 / UTM zone 31N', None)
-    """
-    if crs is None:
-        return None
-    try:
-        from pyproj import CRS
-
-        c = CRS.from_user_input(crs)
-    except Exception:
-        return crs[:40]
-    code = c.to_epsg() if epsg else None
-    return str(c.name) + (f" (EPSG:{code})" if code else "")
 
 #: Recognised formats and the extensions that select them.
 FORMATS: dict[str, tuple[str, ...]] = {
@@ -101,72 +82,6 @@ FORMAT_ALIASES: dict[str, str] = {"laz": "las", "ascii": "xyz", "txt": "xyz", "c
 FORMAT_NAMES: tuple[str, ...] = ("xyz", "las", "laz", "ply", "npz", "gsf", "kmall", "all")
 
 
-@dataclass(frozen=True, eq=False)
-class PointCloud:
-    """Soundings with optional per-point fields and metadata.
-
-    Parameters
-    ----------
-    xyz : ndarray, shape (N, 3)
-        Coordinates in metres: x east, y north, z elevation (up).
-    fields : mapping of str to ndarray, shape (N,)
-        Per-point attributes: ``intensity`` (backscatter), ``beam_angle`` (degrees),
-        ``line``, ``ping``, ``classification`` and any other.
-    source : str, optional
-        The file the points came from.
-    crs : str, optional
-        Coordinate reference system when the file says it (WKT or EPSG code).
-    z_convention : str
-        How z was stored in the source: ``"elevation"`` (up) or ``"depth"``
-        (positive down, flipped on reading). ``xyz`` is always elevation.
-    meta : mapping
-        What else the source says: format, sonar, version, vertical level, the CRS's name.
-    """
-
-    xyz: np.ndarray
-    fields: Mapping[str, np.ndarray] = field(default_factory=dict)
-    source: str | None = None
-    crs: str | None = None
-    z_convention: str = "elevation"
-    meta: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        xyz = np.ascontiguousarray(self.xyz, dtype=np.float64)
-        if xyz.ndim != 2 or xyz.shape[1] != 3:
-            raise ParameterError(f"xyz: expected shape (N, 3), got {xyz.shape}")
-        n = xyz.shape[0]
-        fields = {}
-        for name, values in self.fields.items():
-            arr = np.asarray(values)
-            if arr.shape != (n,):
-                raise ParameterError(
-                    f"field {name!r}: expected shape ({n},), got {arr.shape}"
-                )
-            fields[name] = arr
-        object.__setattr__(self, "xyz", xyz)
-        object.__setattr__(self, "fields", fields)
-
-    def __len__(self) -> int:
-        return int(self.xyz.shape[0])
-
-    @property
-    def intensity(self) -> np.ndarray | None:
-        """Backscatter intensity per point, or None when the file has none."""
-        return self.fields.get("intensity")
-
-    def subset(self, index: np.ndarray) -> PointCloud:
-        """The cloud restricted to a boolean mask or an index array."""
-        return replace(
-            self,
-            xyz=self.xyz[index],
-            fields={k: v[index] for k, v in self.fields.items()},
-        )
-
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Minimum and maximum corner, each shape (3,)."""
-        if len(self) == 0:
-            raise NotEnoughPointsError("the cloud has no points")
-        return self.xyz.min(axis=0), self.xyz.max(axis=0)
 
 
 def format_from_path(path: str | os.PathLike[str], format: str | None = None) -> str:
@@ -363,60 +278,6 @@ def read(
     return cloud
 
 
-def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: int = 10
-                   ) -> tuple[PointCloud, np.ndarray, list[str]]:
-    """A pipeline's input as a cloud and its checked ``(N, 3)`` points, cropped, without
-    stray soundings far from the rest (:func:`mbinspect.grid.stray_soundings`: a navigation
-    jump would otherwise make every grid as large as the distance jumped).
-
-    Parameters
-    ----------
-    data : PointCloud or ndarray, shape (N, 3)
-    crop : box or polygon, optional
-        See :func:`mbinspect.geometry.crop_mask`.
-    minimum : int
-        Fewest points the pipeline can work with.
-
-    Returns
-    -------
-    cloud : PointCloud
-    points : ndarray, shape (N, 3)
-    notes : list of str
-        What was left out and why (stray soundings), for the result's warnings.
-
-    Raises
-    ------
-    DataError
-        The cloud's z is in doubt (``meta["z_doubt"]``, see :func:`read`).
-    NotEnoughPointsError
-        Fewer than ``minimum`` points (after the crop).
-    """
-    from .errors import DataError
-    from .geometry import crop_mask
-    from .grid import stray_soundings
-
-    cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
-    if cloud.meta.get("z_doubt"):
-        raise DataError(cloud.meta["z_doubt"])
-    if crop is not None:
-        cloud = cloud.subset(crop_mask(cloud.xyz, crop))
-    pts = check_points(cloud.xyz, minimum=minimum, name="points")
-    notes: list[str] = []
-    if cloud.meta.get("strays_removed"):  # a tile of a survey: done once for the whole survey
-        return cloud, pts, notes
-    stray = stray_soundings(pts)
-    if stray.any():
-        rest = pts[~stray, :2]
-        far = float(np.hypot(*(np.median(pts[stray, :2], axis=0) - np.median(rest, axis=0))))
-        pings = ""
-        if "ping" in cloud.fields:
-            p = cloud.fields["ping"][stray]
-            pings = f", pings {int(p.min())}–{int(p.max())}"
-        notes.append(f"{int(stray.sum()):,} soundings{pings} lie {far / 1000:.1f} km from the rest of the "
-                     "survey (a navigation jump?) and were left out")
-        cloud = cloud.subset(~stray)
-        pts = check_points(cloud.xyz, minimum=minimum, name="points")
-    return cloud, pts, notes
 
 
 def _looks_geographic(xyz: np.ndarray) -> bool:

@@ -39,12 +39,13 @@ Examples
 
 from .assess import assess_pile, other_method_piles
 from .centre import centre_method, top_coverage
-from .design import Design, apply_design, match_design, read_design
+from .design import Design, read_design
 from .elevate import elevated_points, intensity_threshold, pile_thresholds
 from .frame import decide, fit_frames
 from .group import group_piles, jacket_groups
 from .intersect import intersection_method, side_coverage
 from .iterate import iterate
+from .match import apply_design, match_design
 from .measure import measure_pile, prune
 from .options import METHODS, PileOptions
 from .results import FrameFit, PileFit, PileMeasure, PileResult, PileSegment, Spacing

@@ -8,19 +8,20 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .. import __version__
+from ..cloud import sources
 from ..errors import DataError
 from ..grid import sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
-from ..survey.trace import sources
+from ..version import __version__
 from .accept import rejected_record, rejection_reasons
 from .assess import assess_pile, other_method_piles
-from .design import Design, apply_design
+from .design import Design
 from .elevate import elevated_points, pile_base, pile_thresholds
 from .frame import fit_frames
 from .group import group_piles
 from .iterate import iterate
+from .match import apply_design
 from .options import PileOptions
 from .radius import JointRadius, joint_radius, with_radius_sigma
 from .results import PileFit, PileResult, Spacing

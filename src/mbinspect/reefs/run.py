@@ -9,13 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from ..cloud import sources
 from ..errors import DataError, ParameterError
-from ..grid import cell_groups, cell_index, extent_bytes, sounding_spacing
+from ..grid import cell_groups, cell_index, extent_bytes, machine_memory, sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
-from ..survey.cluster import machine_memory
-from ..survey.trace import sources
+from ..version import __version__
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .footprint import Raster

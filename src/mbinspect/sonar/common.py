@@ -177,7 +177,7 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
     ParameterError
         A ``crs`` pyproj does not know or that is not projected in metres.
     """
-    from ..io import PointCloud
+    from ..cloud import PointCloud
 
     s = soundings if keep_rejected else soundings.subset(soundings.fields["valid"].astype(bool))
     ok = np.isfinite(s.lat) & np.isfinite(s.lon) & np.isfinite(s.z)

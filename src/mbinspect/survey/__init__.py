@@ -15,7 +15,7 @@ saw it.
 5. ``trace`` - :func:`sources`: the files and ping ranges behind an object.
 """
 
+from ..cloud import ping_ranges, sources
 from .inputs import expand_inputs, read_survey
-from .trace import ping_ranges, sources
 
 __all__ = ["expand_inputs", "read_survey", "ping_ranges", "sources"]

@@ -11,6 +11,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from ..errors import ParameterError
+from ..grid import machine_memory
 
 __all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text"]
 
@@ -18,12 +19,6 @@ __all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text"]
 Progress = Callable[[int, int, float | None], None]
 
 
-def machine_memory() -> int:
-    """The machine's physical memory in bytes."""
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):  # not POSIX: assume 8 GB
-        return 8 << 30
 
 
 @contextmanager

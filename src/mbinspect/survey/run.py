@@ -22,15 +22,15 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
 from ..errors import DataError, NotEnoughPointsError
-from ..grid import BYTES_PER_CELL, extent_bytes, stray_cells
+from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory, stray_cells
 from ..io import PointCloud, format_from_path
 from ..options import Options, option
 from ..reefs.detect import STAT_BLOCK, STAT_REACH
 from ..reefs.footprint import SPACING_BLOCK, SPACING_REACH
 from ..reefs.split import AREA_RADIUS
-from .cluster import Progress, dask_client, machine_memory, map_tasks
+from ..version import __version__
+from .cluster import Progress, dask_client, map_tasks
 from .inputs import read_survey
 from .tiles import FileBins, TilePlan, bin_file, block_counts, choose_plan, load_tile, tile_slices
 

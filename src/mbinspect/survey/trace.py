@@ -2,68 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from ..cloud import ping_ranges, sources
+
 __all__ = ["ping_ranges", "sources", "object_soundings"]
-
-
-def ping_ranges(pings: np.ndarray) -> list[list[int]]:
-    """Runs of consecutive ping numbers, each ``[first, last]``.
-
-    Examples
-    --------
-    >>> ping_ranges(np.array([7, 3, 4, 5, 7, 9, 10]))
-    [[3, 5], [7, 7], [9, 10]]
-    """
-    u = np.unique(np.asarray(pings, np.int64))
-    if len(u) == 0:
-        return []
-    breaks = np.flatnonzero(np.diff(u) > 1)
-    starts = np.concatenate([[0], breaks + 1])
-    ends = np.concatenate([breaks, [len(u) - 1]])
-    return [[int(u[a]), int(u[b])] for a, b in zip(starts, ends, strict=True)]
-
-
-def sources(index: np.ndarray, fields: Mapping[str, np.ndarray], files: Sequence[str]
-            ) -> tuple[dict[str, Any], ...]:
-    """The files and ping ranges of the soundings ``index`` of a cloud.
-
-    Parameters
-    ----------
-    index : ndarray of int
-        The object's soundings (rows of the cloud).
-    fields : mapping
-        The cloud's fields: ``file`` (index into ``files``; absent: every sounding is from
-        ``files[0]``) and ``ping`` (absent: no ranges).
-    files : sequence of str
-        The survey's files.
-
-    Returns
-    -------
-    tuple of dict
-        ``{"file", "pings" ([[first, last], ...] or None), "soundings"}`` per file, in
-        file order.
-
-    Examples
-    --------
-    >>> f = {"file": np.array([0, 0, 1, 1]), "ping": np.array([4, 5, 1, 9])}
-    >>> sources(np.array([0, 1, 3]), f, ["a.laz", "b.laz"])[1]
-    {'file': 'b.laz', 'pings': [[9, 9]], 'soundings': 1}
-    """
-    index = np.asarray(index, np.int64)
-    file_of = fields.get("file")
-    which = np.zeros(len(index), np.int64) if file_of is None else np.asarray(file_of)[index].astype(np.int64)
-    ping = fields.get("ping")
-    out = []
-    for f in np.unique(which):
-        rows = index[which == f]
-        out.append({"file": str(files[int(f)]) if int(f) < len(files) else str(int(f)),
-                    "pings": None if ping is None else ping_ranges(np.asarray(ping)[rows]),
-                    "soundings": len(rows)})
-    return tuple(out)
 
 
 def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
