@@ -7,10 +7,9 @@ import warnings
 import numpy as np
 import pytest
 
-from mbinspect import ascii as mascii
-from mbinspect import io as mio
 from mbinspect.checks import check_points
 from mbinspect.errors import FileAccessError, InputError, NotEnoughPointsError, ParameterError
+from mbinspect.formats import ascii_parse as mascii
 from mbinspect.io import InputWarning, PointCloud, describe, read, write
 
 

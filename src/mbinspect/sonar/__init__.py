@@ -11,6 +11,6 @@ its depths were reduced to (the file's own tide and draft correctors already app
 """
 
 from .common import Soundings, to_cloud, utm_crs
-from .read import SONAR_FORMATS, read_sonar
+from .read import READERS, read_sonar
 
-__all__ = ["Soundings", "to_cloud", "utm_crs", "read_sonar", "SONAR_FORMATS"]
+__all__ = ["Soundings", "to_cloud", "utm_crs", "read_sonar", "READERS"]

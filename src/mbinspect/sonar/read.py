@@ -9,10 +9,10 @@ from .gsf import read_gsf
 from .kmall import read_kmall
 from .kongsberg_all import read_all
 
-__all__ = ["SONAR_FORMATS", "read_sonar"]
+__all__ = ["READERS", "read_sonar"]
 
 #: Sonar format name -> reader.
-SONAR_FORMATS = {"gsf": read_gsf, "kmall": read_kmall, "all": read_all}
+READERS = {"gsf": read_gsf, "kmall": read_kmall, "all": read_all}
 
 
 def read_sonar(path: str | os.PathLike[str], format: str) -> Soundings:
@@ -29,7 +29,7 @@ def read_sonar(path: str | os.PathLike[str], format: str) -> Soundings:
 
     Examples
     --------
-    >>> sorted(SONAR_FORMATS)
+    >>> sorted(READERS)
     ['all', 'gsf', 'kmall']
     """
-    return SONAR_FORMATS[format](str(path))
+    return READERS[format](str(path))

@@ -11,15 +11,17 @@ from typing import Any
 
 import numpy as np
 
+from ..cloud import PointCloud, crs_name
 from ..errors import FileAccessError, InputError
-from ..io import FORMATS, SONAR_FORMATS, PointCloud, crs_name, format_from_path, read
+from ..formats import EXTENSIONS, FORMATS, format_of
+from ..io import read
 
 __all__ = ["expand_inputs", "read_survey", "survey_lines", "READ_OPTIONS"]
 
 #: The keyword arguments of :func:`mbinspect.io.read` a survey passes to every file.
 READ_OPTIONS = ("format", "columns", "depth_positive", "delimiter", "crs", "keep_rejected", "decimal", "z_up")
 
-_SUFFIXES = tuple(s for suffixes in FORMATS.values() for s in suffixes)
+_SUFFIXES = EXTENSIONS
 
 
 def expand_inputs(specs: Sequence[str | os.PathLike[str]]) -> list[Path]:
@@ -57,7 +59,7 @@ def expand_inputs(specs: Sequence[str | os.PathLike[str]]) -> list[Path]:
         p = Path(text)
         if p.is_dir():
             found = sorted(f for f in p.rglob("*") if f.is_file() and f.suffix.lower() in _SUFFIXES)
-            binary = [f for f in found if f.suffix.lower() not in FORMATS["xyz"]]
+            binary = [f for f in found if f.suffix.lower() not in FORMATS["xyz"].extensions]
             if binary:  # beside line files, .csv and .txt files are tables (designs, references)
                 found = binary
             if not found:
@@ -131,7 +133,7 @@ def read_survey(paths: Sequence[str | os.PathLike[str]], *, progress: Callable[[
     crs = read_options.pop("crs", None)
     first_crs: str | None = None
     for k, f in enumerate(files):
-        sonar = format_from_path(f, read_options.get("format")) in SONAR_FORMATS
+        sonar = format_of(f, read_options.get("format")).sonar
         within = None if progress is None else (lambda f, k=k: progress((k + f) / len(files)))
         c = read(f, crs=crs if crs is not None or not sonar else first_crs, progress=within, **read_options)
         if k == 0:

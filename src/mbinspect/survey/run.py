@@ -22,9 +22,10 @@ from typing import Any
 
 import numpy as np
 
+from ..cloud import PointCloud
 from ..errors import DataError, NotEnoughPointsError
+from ..formats import format_of
 from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory, stray_cells
-from ..io import PointCloud, format_from_path
 from ..options import Options, option
 from ..reefs.detect import STAT_BLOCK, STAT_REACH
 from ..reefs.footprint import SPACING_BLOCK, SPACING_REACH
@@ -89,18 +90,15 @@ class SurveyRun:
 
 
 def estimate_soundings(paths: Sequence[Path], fmt: str | None = None) -> int:
-    """Soundings in the files: exact for LAS/LAZ (the header), from the size otherwise."""
+    """Soundings in the files: exact where the format's header says (LAS/LAZ), from the
+    size and the format's bytes per sounding otherwise."""
     total = 0
-    per_byte = {"xyz": 1 / 30, "npz": 1 / 28, "ply": 1 / 28, "gsf": 1 / 12, "kmall": 1 / 20, "all": 1 / 16}
     for p in paths:
-        kind = format_from_path(p, fmt)
-        if kind == "las":
-            import laspy
-
-            with laspy.open(p) as r:
-                total += int(r.header.point_count)
+        row = format_of(p, fmt)
+        if row.count is not None:
+            total += row.count(Path(p))
         else:
-            total += int(os.path.getsize(p) * per_byte.get(kind, 1 / 12))
+            total += int(os.path.getsize(p) / row.bytes_per_sounding)
     return total
 
 

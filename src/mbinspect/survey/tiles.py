@@ -22,9 +22,11 @@ from typing import Any
 
 import numpy as np
 
+from ..cloud import PointCloud
 from ..errors import InputError, ParameterError
+from ..formats import format_of
 from ..grid import pack_cells, unpack_cells
-from ..io import PointCloud, format_from_path, iter_las, read
+from ..io import read
 
 __all__ = ["TilePlan", "FileBins", "BinnedChunk", "bin_file", "block_counts", "choose_plan", "tile_slices",
            "load_tile", "STRAY_CELL", "BLOCKS_PER_BUFFER"]
@@ -158,8 +160,9 @@ class FileBins:
 def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any]) -> Iterator[PointCloud]:
     """A file's soundings in clouds: LAS/LAZ in chunks as read, other formats whole (one
     survey line: memory follows the largest line file, not the survey)."""
-    if format_from_path(path, read_options.get("format")) == "las":
-        yield from iter_las(path, chunk)
+    row = format_of(path, read_options.get("format"))
+    if row.chunks is not None:
+        yield from row.chunks(path, chunk)
     else:
         yield read(path, **read_options)
 
