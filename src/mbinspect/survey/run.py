@@ -11,7 +11,6 @@ grouped, piles renumbered, grouped into jackets and spaced.
 
 from __future__ import annotations
 
-import math
 import os
 import tempfile
 import time
@@ -22,28 +21,23 @@ from typing import Any
 
 import numpy as np
 
-from ..cloud import PointCloud
 from ..errors import DataError, NotEnoughPointsError
 from ..formats import format_of
 from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory, stray_cells
 from ..options import Options, option
-from ..reefs.detect import STAT_BLOCK, STAT_REACH
-from ..reefs.footprint import SPACING_BLOCK, SPACING_REACH
-from ..reefs.split import AREA_RADIUS
+from ..pipeline import Pipeline, TilePart
+from ..pipelines import pipeline_named
 from ..version import __version__
 from .cluster import Progress, dask_client, map_tasks
 from .inputs import read_survey
 from .tiles import FileBins, TilePlan, bin_file, block_counts, choose_plan, load_tile, tile_slices
 
-__all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "tile_options", "TileTask", "TileOutcome",
+__all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "TileTask", "TileOutcome",
            "estimate_soundings", "BYTES_PER_SOUNDING"]
 
 #: Peak memory of the in-memory pipelines per sounding (bytes): 1.69 GiB for 10 M soundings
 #: from NPZ, 4.02 GiB from ASCII (benchmarks/RESULTS.md), with a margin.
 BYTES_PER_SOUNDING = 400
-
-#: The fields a pipeline reads besides x, y, z, file and line: all a tile part keeps.
-TILE_FIELDS = {"reefs": ("ping",), "piles": ("ping", "intensity", "beam_angle")}
 
 #: A tile's peak memory on a worker: a fixed part (the interpreter, NumPy, SciPy, the
 #: Dask worker) and bytes per sounding it reads; measured 0.09 GB and 150 B in one
@@ -102,16 +96,19 @@ def estimate_soundings(paths: Sequence[Path], fmt: str | None = None) -> int:
     return total
 
 
-def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any, survey: SurveyOptions, *,
+def run_survey(pipeline: str | Pipeline, paths: Sequence[str | os.PathLike[str]], options: Any,
+               survey: SurveyOptions, *,
                read_options: Mapping[str, Any] | None = None, extra: Mapping[str, Any] | None = None,
                workdir: str | os.PathLike[str] | None = None, progress: Progress | None = None,
                note: Callable[[str], None] | None = None, tile_function: Callable[..., Any] | None = None,
                stage_progress: Callable[[str], Callable[[float], None]] | None = None) -> SurveyRun:
-    """Run the ``"reefs"`` or ``"piles"`` pipeline over a survey of one or many files.
+    """Run a pipeline over a survey of one or many files.
 
     Parameters
     ----------
-    kind : {"reefs", "piles"}
+    pipeline : str or Pipeline
+        A name of :data:`mbinspect.pipelines.PIPELINES` (``"reefs"``, ``"piles"``) or a
+        pipeline.
     paths : sequence of path-like
         The survey's files (:func:`~mbinspect.survey.inputs.expand_inputs`).
     options : ReefOptions or PileOptions
@@ -136,6 +133,7 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
     -------
     SurveyRun
     """
+    pipe = pipeline_named(pipeline)
     files = [Path(p) for p in paths]
     ropts = dict(read_options or {})
     extra = dict(extra or {})
@@ -148,16 +146,17 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
             return None if stage_progress is None else stage_progress(label)
 
         cloud = read_survey(files, progress=stage("reading"), **ropts)
-        grid = extent_bytes(cloud.xyz, options.seabed_cell)
+        cell = pipe.grid_cell(options)
+        grid = extent_bytes(cloud.xyz, cell)
         if grid > max(len(cloud) * BYTES_PER_SOUNDING, SPARSE_BYTES):
             tiled = True
             say(f"the soundings' extent would take a seabed grid of {grid / 1e9:.1f} GB in one piece "
-                f"(`seabed_cell` {options.seabed_cell:g} m) for {len(cloud):,} soundings: run in tiles "
+                f"(`seabed_cell` {cell:g} m) for {len(cloud):,} soundings: run in tiles "
                 "that follow the soundings")
         else:
-            result = _whole(kind, cloud, options, extra, stage(kind))
+            result = pipe.run(cloud, options, extra, stage(pipe.name))
             return SurveyRun(result, cloud.xyz, False, 1, {"soundings": len(cloud), "files": len(files)})
-    buffer = _buffer(kind, options)
+    buffer = pipe.buffer(options)
     block = TilePlan.block_for(buffer, survey.tile_size)
     say(f"{len(files)} file(s), about {n_est:,} soundings: binned in blocks of {block:g} m")
     with tempfile.TemporaryDirectory(prefix="mbinspect-tiles-", dir=workdir) as tmp:
@@ -165,19 +164,19 @@ def run_survey(kind: str, paths: Sequence[str | os.PathLike[str]], options: Any,
         with _maybe_client(use_dask, survey) as client:
             bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
                              progress=progress, block=block, workdir=tmp, read_options=ropts,
-                             chunk=survey.chunk, fields=TILE_FIELDS[kind])
+                             chunk=survey.chunk, fields=pipe.fields)
             plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey),
-                                 options.seabed_cell)
-            tile_opts, notes = tile_options(kind, options)
+                                 pipe.grid_cell(options))
+            tile_opts, notes = pipe.tile_options(options)
             if not sizing.get("within_budget", True):
                 notes.append(f"tiled: the smallest tiles the buffer allows read {sizing['largest']:,} "
                              f"soundings, more than `tile_memory` holds")
-            tasks = _tile_tasks(bins, plan, kind, tile_opts, [str(f) for f in files])
+            tasks = _tile_tasks(bins, plan, pipe, tile_opts, [str(f) for f in files])
             say(f"{sum(b.n for b in bins):,} soundings in {len(tasks)} tiles of {plan.size:g} m with a "
                 f"{plan.reach * plan.block:g} m buffer")
             fn = tile_function or run_tile
             outcomes = map_tasks(fn, tasks, client=client, progress=progress)
-    result = _merge(kind, outcomes, options, extra, files, bins, notes)
+    result = _merge(pipe, outcomes, options, extra, files, bins, notes)
     pts = np.concatenate([o.sample for o in outcomes]) if outcomes else np.zeros((0, 3))
     peaks: dict[int, int] = {}
     for o in outcomes:
@@ -211,30 +210,6 @@ def _maybe_client(use: bool, survey: SurveyOptions) -> Any:
     return dask_client(scheduler=survey.scheduler, workers=survey.workers)
 
 
-def _whole(kind: str, cloud: PointCloud, options: Any, extra: Mapping[str, Any],
-           progress: Callable[[float], None] | None = None) -> Any:
-    if kind == "reefs":
-        from ..reefs import extract_reefs
-
-        return extract_reefs(cloud, options, reference=extra.get("reference"), progress=progress)
-    from ..piles import locate_piles
-
-    return locate_piles(cloud, options, design=extra.get("design"), progress=progress)
-
-
-def _buffer(kind: str, options: Any) -> float:
-    """Metres each tile reads beyond its square: the seabed window, the noise search and
-    the largest object, so that every stage sees near the edge what it sees inside."""
-    if kind == "reefs":
-        # a reef's single-reef area comes from the parts within AREA_RADIUS m, each part's
-        # footprint from the sounding spacing within SPACING_REACH blocks, each sounding's
-        # height from the seabed window: the chain a tile must hold, plus the reef itself
-        # (and the reef points there from the statistical filter's blocks)
-        reach = SPACING_BLOCK * (SPACING_REACH + 1) + STAT_BLOCK * (STAT_REACH + 1)
-        return float(math.ceil(AREA_RADIUS + reach + options.seabed_window + 2 * options.noise_radius + 5.0))
-    return float(math.ceil(options.opening_window + 10 * options.radius + 5.0))
-
-
 def _worker_count(client: Any, survey: SurveyOptions) -> int:
     if client is None:
         return 1
@@ -263,7 +238,7 @@ class TileTask:
     key: tuple[int, int]
     slices: tuple[tuple[str, tuple[tuple[int, int], ...]], ...]
     plan: TilePlan
-    kind: str
+    pipeline: Pipeline
     options: Any
     stray: np.ndarray
     line_offsets: Mapping[int, tuple[int, np.ndarray]]
@@ -273,35 +248,17 @@ class TileTask:
 
 @dataclass(frozen=True)
 class TileOutcome:
-    """What a tile reports: its own objects (centre in its square) and what it saw."""
+    """What a tile reports: the pipeline's part (its own objects, centre in its square, and
+    what it saw) and how the tile ran."""
 
     key: tuple[int, int]
-    objects: tuple[Any, ...]
-    others: tuple[Any, ...]
-    covs: Mapping[int, np.ndarray]
-    warnings: tuple[str, ...]
+    part: TilePart
     n: int
     sample: np.ndarray
     stats: Mapping[str, Any]
 
 
-def tile_options(kind: str, options: Any) -> tuple[Any, list[str]]:
-    """The options each tile runs with, and why they differ from those given.
-
-    A tile cannot see the whole survey: the reef seabed ``auto`` (one plane where it fits
-    the whole cloud) becomes the local grid, and the pile ``count`` is applied after the
-    merge, not in each tile."""
-    notes = []
-    if kind == "reefs" and options.seabed == "auto":
-        options = options.replace(seabed="grid")
-        notes.append("tiled: the seabed is the local grid in every tile (`seabed` auto chooses one plane "
-                     "for a whole cloud, which a tile does not see)")
-    if kind == "piles" and options.count is not None:
-        options = options.replace(count=None)
-    return options, notes
-
-
-def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, kind: str, options: Any,
+def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, pipe: Pipeline, options: Any,
                 files: Sequence[str]) -> list[TileTask]:
     cells = np.concatenate([b.cells for b in bins])
     counts = np.concatenate([b.cell_counts for b in bins])
@@ -315,7 +272,7 @@ def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, kind: str, options: An
         first += len(b.lines)
     reads, _ = tile_slices(plan, bins)
     crs = bins[0].crs
-    return [TileTask(k, tuple(reads[k]), plan, kind, options, stray, offsets, tuple(files), crs)
+    return [TileTask(k, tuple(reads[k]), plan, pipe, options, stray, offsets, tuple(files), crs)
             for k in sorted(reads)]
 
 
@@ -343,26 +300,14 @@ def _run_tile(task: TileTask) -> TileOutcome:
         hi, hj = task.plan.home(np.array([[x, y]]))
         return bool(hi[0] == task.key[0] and hj[0] == task.key[1])
 
-    stats: dict[str, Any] = {"n_own": int(own.sum())}
     try:
-        if task.kind == "reefs":
-            from ..reefs import extract_reefs
-
-            r = extract_reefs(cloud, task.options)
-            objects = tuple(x for x in r.reefs if mine(x.x, x.y))
-            others = tuple(o for o in r.others if mine(o["x"], o["y"]))
-            stats.update(seabed=r.seabed, filters=r.filters, reef_area=r.footprint.get("reef_area_used"))
-            return TileOutcome(task.key, objects, others, {}, r.warnings, len(cloud), sample, stats)
-        from ..piles.run import measure_piles
-
-        m = measure_piles(cloud, task.options)
-        keep = [p for p in m.piles if mine(p.x, p.y)]
-        rejected = tuple(o for o in m.rejected if mine(o["x"], o["y"]))
-        return TileOutcome(task.key, tuple(keep), rejected, {p.id: m.covs[p.id] for p in keep},
-                           m.warnings, len(cloud), sample, stats)
+        part = task.pipeline.run_tile(cloud, task.options, mine)
     except (DataError, NotEnoughPointsError) as exc:
         where = f"tile {task.key[0]},{task.key[1]} ({x0:.0f}–{x1:.0f} E, {y0:.0f}–{y1:.0f} N)"
-        return TileOutcome(task.key, (), (), {}, (f"{where}: {exc}",), len(cloud), sample, stats)
+        part = TilePart(warnings=(f"{where}: {exc}",))
+    else:
+        part = replace(part, stats={**part.stats, "n_own": int(own.sum())})
+    return TileOutcome(task.key, part, len(cloud), sample, {})
 
 
 def _thin(xyz: np.ndarray, cell: float = 0.5) -> np.ndarray:
@@ -380,59 +325,12 @@ def _thin(xyz: np.ndarray, cell: float = 0.5) -> np.ndarray:
     return xyz[order[(starts + ends - 1) // 2]]
 
 
-def _merge(kind: str, outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
+def _merge(pipe: Pipeline, outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
            files: Sequence[Path], bins: Sequence[FileBins], notes: Sequence[str]) -> Any:
-    """The tiles' own objects as one result, numbered, grouped and scored once."""
-    warnings = list(notes) + [w for o in outcomes for w in o.warnings]
-    n = sum(b.n for b in bins)
+    """The tiles' parts as one result, merged by the pipeline with the survey's parameters."""
+    warnings = list(notes) + [w for o in outcomes for w in o.part.warnings]
     parameters = {**options.to_dict(),
-                  "input": {"source": f"{len(files)} files", "n_points": n, "crs": bins[0].crs},
+                  "input": {"source": f"{len(files)} files", "n_points": sum(b.n for b in bins),
+                            "crs": bins[0].crs},
                   "software": f"mbinspect {__version__}", "tiles": len(outcomes)}
-    if kind == "reefs":
-        return _merge_reefs(outcomes, options, extra, parameters, warnings)
-    from ..piles.run import relate_piles
-    from ..piles.separate import stable_order
-
-    piles = [(p, o.covs[p.id]) for o in outcomes for p in o.objects]
-    order = stable_order(np.array([[p.x, p.y] for p, _ in piles])) if piles else np.zeros(0, int)
-    covs: dict[int, np.ndarray] = {}
-    renamed: list[Any] = []
-    for k in order:  # numbered as one cloud numbers them: rows south to north, west to east
-        p, cov = piles[int(k)]
-        covs[len(renamed) + 1] = cov
-        renamed.append(replace(p, id=len(renamed) + 1))
-    if not piles:
-        raise DataError("no pile found in any tile: " + "; ".join(warnings[:3]))
-    if options.count is not None and len(piles) != options.count:
-        warnings.append(f"{len(piles)} piles found where `count` says {options.count}")
-    rejected = [r for o in outcomes for r in o.others]
-    return relate_piles(renamed, covs, options, design=extra.get("design"), parameters=parameters,
-                        warnings=warnings, rejected=rejected)
-
-
-def _merge_reefs(outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
-                 parameters: dict[str, Any], warnings: list[str]) -> Any:
-    from ..reefs.group import number_reefs
-    from ..reefs.results import ReefResult
-    from ..reefs.score import score_reefs
-
-    reefs, groups = number_reefs([r for o in outcomes for r in o.objects], options.group_link)
-    others = tuple(x for o in outcomes for x in o.others)
-    evaluation, ref_xy = None, None
-    reference = extra.get("reference")
-    if reference is not None:
-        evaluation, warn = score_reefs(reefs, reference, tolerance=options.tolerance)
-        warnings += warn
-        ref_xy = np.asarray(reference[0])
-    rms = [(o.stats["seabed"].get("residual_rms"), o.stats["n_own"]) for o in outcomes if "seabed" in o.stats]
-    rms = [(r, w) for r, w in rms if r is not None and np.isfinite(r)]
-    seabed = {"method": "local grid, per tile",
-              "residual_rms": float(np.sqrt(sum(r * r * w for r, w in rms) / max(sum(w for _, w in rms), 1)))
-              if rms else math.nan}
-    removed = sum(o.stats["filters"]["radius"]["n_removed"] for o in outcomes if "filters" in o.stats)
-    filters = {"radius": {"n_removed_in_buffered_tiles": removed}}
-    areas = np.array([o.stats["reef_area"] for o in outcomes if o.stats.get("reef_area") is not None], float)
-    area = float(np.median(areas[np.isfinite(areas)])) if np.isfinite(areas).any() else math.nan
-    return ReefResult(tuple(reefs), tuple(groups), others, seabed, filters, evaluation, parameters,
-                      tuple(warnings), None, None, {"reef_area_used": area}, ref_xy)
-
+    return pipe.merge([o.part for o in outcomes], options, extra, parameters, warnings)
