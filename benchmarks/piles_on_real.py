@@ -36,7 +36,7 @@ def main() -> None:
                              "stopped: " + str(exc)[:90], f"{time.perf_counter() - t:.1f}"])
                 continue
             reported += len(res.piles)
-            why = res.rejected[0]["reasons"][0][:90] if res.rejected else ""
+            why = res.rejected[0].reasons[0][:90] if res.rejected else ""
             rows.append([name[:30], f"{len(cloud):,}", f"{radius:g}", f"{len(res.piles)}",
                          f"{len(res.rejected)}", why, f"{time.perf_counter() - t:.1f}"])
     print(table(["file", "soundings", "radius m", "piles", "set aside", "stop or first reason", "s"], rows))

@@ -507,8 +507,8 @@ def test_a_pile_that_cannot_be_measured_never_stops_the_others():
     drop[np.flatnonzero(on & ~top)[40:]] = True
     res = locate_piles(sim.cloud.subset(~drop), count=4, radius=0.75)
     assert len(res.piles) == 3 and len(res.rejected) == 1
-    assert res.rejected[0]["reasons"][0].startswith("not measurable")
-    assert math.hypot(res.rejected[0]["x"] - truth[1]["x"], res.rejected[0]["y"] - truth[1]["y"]) < 1.0
+    assert res.rejected[0].reasons[0].startswith("not measurable")
+    assert math.hypot(res.rejected[0].x - truth[1]["x"], res.rejected[0].y - truth[1]["y"]) < 1.0
     for p in res.piles:
         t = min(truth.values(), key=lambda q: math.hypot(q["x"] - p.x, q["y"] - p.y))
         assert t["id"] != 1 and math.hypot(t["x"] - p.x, t["y"] - p.y) < 0.03

@@ -345,16 +345,16 @@ def test_rocks_of_reef_size_are_not_reefs():
     free = extract_reefs(sim.cloud, reference=_reference(sim))
     assert free.evaluation is not None and (free.evaluation.tp, free.evaluation.fn) == (8, 0)
     assert free.evaluation.fp <= blind.fp - 2
-    rounded = [o for o in free.others if o["reason"].startswith(("rounded", "a dome"))]
+    rounded = [o for o in free.others if o.reason.startswith(("rounded", "a dome"))]
     assert len(rounded) >= 2
-    assert all(min(math.hypot(o["x"] - r["x"], o["y"] - r["y"]) for r in rocks) < 1.0 for o in rounded)
+    assert all(min(math.hypot(o.x - r["x"], o.y - r["y"]) for r in rocks) < 1.0 for o in rounded)
     res = extract_reefs(sim.cloud, reference=_reference(sim), design="cross1,hollow")
     ev = res.evaluation
     assert ev is not None and (ev.tp, ev.fp, ev.fn) == (8, 0, 0)
     for rock in rocks:
-        near = [o for o in res.others if math.hypot(o["x"] - rock["x"], o["y"] - rock["y"]) < 1.0]
-        assert near and all(o["reason"] for o in near)
-    assert sum("design only at" in o["reason"] for o in res.others) >= 3
+        near = [o for o in res.others if math.hypot(o.x - rock["x"], o.y - rock["y"]) < 1.0]
+        assert near and all(o.reason for o in near)
+    assert sum("design only at" in o.reason for o in res.others) >= 3
 
 
 def test_a_candidate_lower_than_min_height_is_a_bump_not_a_reef(reef_small):
@@ -428,7 +428,7 @@ def test_a_sunk_triangle_that_looks_rounded_is_a_reef_when_its_design_fits():
                    close_pairs=0, boulders=0, debris=0)
     plain = extract_reefs(sim.cloud, reference=_reference(sim), seed=2)
     assert plain.evaluation is not None and (plain.evaluation.tp, plain.evaluation.fn) == (8, 1)
-    assert sum(o["reason"].startswith("rounded") for o in plain.others) == 1
+    assert sum(o.reason.startswith("rounded") for o in plain.others) == 1
     designed = extract_reefs(sim.cloud, reference=_reference(sim), seed=2, design="triangle")
     assert designed.evaluation is not None and (designed.evaluation.tp, designed.evaluation.fn) == (9, 0)
     assert all(r.design == "triangle" for r in designed.reefs)

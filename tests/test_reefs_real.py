@@ -68,16 +68,16 @@ def test_sand_wave_crests_are_not_reefs():
     cloud = read(DATA / "ets_all_turbeams_9142459809945665151.all")
     res = extract_reefs(cloud)
     assert not res.reefs
-    ridges = [o for o in res.others if o["reason"].startswith("elongated")]
-    bumps = [o for o in res.others if "above the seabed around it (`min_height`" in o["reason"]]
-    assert len(ridges) == 1 and "sand-wave crest" in ridges[0]["reason"] and ridges[0]["height"] > 0.5
-    assert len(bumps) == 1 and bumps[0]["height"] < 0.3
+    ridges = [o for o in res.others if o.reason.startswith("elongated")]
+    bumps = [o for o in res.others if "above the seabed around it (`min_height`" in o.reason]
+    assert len(ridges) == 1 and "sand-wave crest" in ridges[0].reason and ridges[0].height > 0.5
+    assert len(bumps) == 1 and bumps[0].height < 0.3
     assert res.filters["radius"]["n_removed"] <= 0.01 * len(cloud)
     # without the ridge and shape tests the ridge comes back as a reef: the case is real
     assert len(extract_reefs(cloud, max_elongation=0, rounded_spread=0, dome_misfit=0).reefs) == 1
     # given designs, nothing either
     designed = extract_reefs(cloud, design="cross1,cross2,hollow,triangle")
-    assert not designed.reefs and all(o["reason"] for o in designed.others)
+    assert not designed.reefs and all(o.reason for o in designed.others)
 
 
 def test_a_line_across_a_wide_empty_extent_runs_in_tiles_that_follow_it(tmp_path):
@@ -103,9 +103,9 @@ def test_a_line_across_a_wide_empty_extent_runs_in_tiles_that_follow_it(tmp_path
     assert any("run in tiles that follow the soundings" in s for s in said)
     assert len(run.result.others) == n * len(one.others) >= n
     for o in run.result.others:
-        k = round((o["x"] - one.others[0]["x"]) / step)
-        assert abs(o["x"] - k * step - one.others[0]["x"]) < 1e-3
-        assert abs(o["y"] - k * step - one.others[0]["y"]) < 1e-3
+        k = round((o.x - one.others[0].x) / step)
+        assert abs(o.x - k * step - one.others[0].x) < 1e-3
+        assert abs(o.y - k * step - one.others[0].y) < 1e-3
     assert not stray_cells(np.array([[30 * k, 0] for k in range(30)]), np.full(30, 1000)).any()
 
 

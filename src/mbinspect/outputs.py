@@ -26,6 +26,8 @@ import shutil
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +44,8 @@ __all__ = [
     "write_json",
     "write_table",
     "discard_unfinished",
+    "Recorded",
+    "record_from",
 ]
 
 _STAGING = ".mbinspect-"  # marks the staging folders this package owns
@@ -308,3 +312,62 @@ def write_table(rows: Sequence[Mapping[str, Any]], path: str | os.PathLike[str],
                 v = to_jsonable(row.get(c))
                 vals.append("" if v is None else (f"{v:.4f}" if isinstance(v, float) else v))
             w.writerow(vals)
+
+
+@dataclass(frozen=True)
+class Recorded:
+    """A summary read back from a result's JSON (a seabed, a terrain mask) in place of the
+    model that wrote it: ``to_dict()`` gives the summary as it was written.
+
+    Examples
+    --------
+    >>> Recorded({"method": "grid", "cell": 1.0}).to_dict()
+    {'method': 'grid', 'cell': 1.0}
+    """
+
+    data: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as written."""
+        return dict(self.data)
+
+
+def record_from(cls: type, d: Mapping[str, Any], **given: Any) -> Any:
+    """A frozen dataclass ``cls`` built from its JSON row ``d`` (the inverse of its
+    ``to_dict()`` for plain fields): keys that name fields are taken, lists become tuples
+    for tuple fields (nested ones too), and ``None`` becomes NaN for a float field that
+    cannot be None (JSON has no NaN); ``given`` overrides or adds fields.
+
+    Parameters
+    ----------
+    cls : type
+        A dataclass.
+    d : mapping
+    **given
+        Fields set here, not from ``d``.
+
+    Returns
+    -------
+    object
+        An instance of ``cls``.
+
+    Examples
+    --------
+    >>> @dataclass(frozen=True)
+    ... class Row:
+    ...     a: float
+    ...     b: tuple[int, ...] = ()
+    >>> record_from(Row, {"a": None, "b": [1, 2], "c": 3})
+    Row(a=nan, b=(1, 2))
+    """
+    kw: dict[str, Any] = {}
+    for f in dataclass_fields(cls):
+        if f.name in given or f.name not in d:
+            continue
+        v, kind = d[f.name], str(f.type)
+        if v is None and kind.startswith("float") and "None" not in kind:
+            v = math.nan
+        elif isinstance(v, list) and kind.startswith("tuple"):
+            v = tuple(tuple(x) if isinstance(x, list) and "tuple[tuple" in kind else x for x in v)
+        kw[f.name] = v
+    return cls(**kw, **given)

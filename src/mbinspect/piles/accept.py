@@ -6,12 +6,10 @@ answer and listed with the reasons."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from .options import PileOptions
-from .results import PileFit
+from .results import PileFit, RejectedPile
 
 __all__ = ["MIN_SIDE", "MIN_TOP_SHARE", "RADIUS_RATIO", "rejected_record", "rejection_reasons"]
 
@@ -71,7 +69,7 @@ def rejection_reasons(pile: PileFit, top_height: float, options: PileOptions) ->
     return reasons
 
 
-def rejected_record(pile: PileFit, top_height: float, reasons: list[str]) -> dict[str, Any]:
-    """What a result lists of a rejected candidate (JSON-ready)."""
-    return {"x": pile.x, "y": pile.y, "z": pile.z, "top_height": float(np.round(top_height, 3)),
-            "tilt_deg": pile.tilt_deg, "radius_fitted": pile.radius_fitted, "reasons": reasons}
+def rejected_record(pile: PileFit, top_height: float, reasons: list[str]) -> RejectedPile:
+    """What a result lists of a rejected candidate."""
+    return RejectedPile(pile.x, pile.y, pile.z, float(np.round(top_height, 3)), pile.tilt_deg,
+                        pile.radius_fitted, tuple(reasons))

@@ -14,10 +14,11 @@ from typing import Any
 import numpy as np
 
 from ..fit import Cylinder, Plane
-from ..outputs import to_jsonable
+from ..outputs import Recorded, record_from, to_jsonable
 from ..seabed import GridSurface
 
-__all__ = ["PileSegment", "PileMeasure", "PileFit", "Spacing", "FrameFit", "PileResult", "plan_sigma"]
+__all__ = ["PileSegment", "PileMeasure", "PileFit", "RejectedPile", "Spacing", "FrameFit", "PileResult",
+           "plan_sigma"]
 
 
 def plan_sigma(cov: np.ndarray) -> float:
@@ -175,6 +176,46 @@ class PileFit:
         d["sources"] = list(self.sources)
         return to_jsonable(d)
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PileFit:
+        """The pile of a ``piles.json`` row (:meth:`to_dict`'s inverse)."""
+        return record_from(cls, d, jackknife=d.get("jackknife") or "", alternatives=d.get("methods", {}))
+
+
+@dataclass(frozen=True)
+class RejectedPile:
+    """A candidate that is not a standing pile, or that the data cannot measure, with why.
+
+    Attributes
+    ----------
+    x, y, z : float
+        Where it stands (m): its top centre, or its soundings' mean and highest.
+    top_height : float or None
+        Its top above the seabed (m; None: not measured).
+    tilt_deg, radius_fitted : float or None
+        What its fit showed.
+    reasons : tuple of str
+    """
+
+    x: float
+    y: float
+    z: float
+    top_height: float | None
+    tilt_deg: float | None
+    radius_fitted: float | None
+    reasons: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """One row of ``rejected`` in ``piles.json``."""
+        return to_jsonable({"x": self.x, "y": self.y, "z": self.z, "top_height": self.top_height,
+                            "tilt_deg": self.tilt_deg, "radius_fitted": self.radius_fitted,
+                            "reasons": list(self.reasons)})
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RejectedPile:
+        """The record of a ``rejected`` row."""
+        return record_from(cls, d)
+
 
 @dataclass(frozen=True)
 class Spacing:
@@ -211,6 +252,11 @@ class Spacing:
                             "deviation": self.deviation, "verdict": self.verdict, "pass": self.passed,
                             "method": self.method})
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Spacing:
+        """The spacing of a ``spacings`` row (its 95 % bounds follow from it)."""
+        return record_from(cls, d, passed=d.get("pass"))
+
 
 @dataclass(frozen=True)
 class FrameFit:
@@ -238,6 +284,11 @@ class FrameFit:
                             "shift_x": self.shift_x, "shift_y": self.shift_y,
                             "residuals": list(self.residuals), "tolerance": self.tolerance,
                             "verdict": self.verdict})
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> FrameFit:
+        """The frame fit of a ``frames`` row."""
+        return record_from(cls, d)
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,13 +326,13 @@ class PileResult:
     parameters: dict[str, Any]
     warnings: tuple[str, ...] = ()
     segments: dict[int, PileSegment] = field(default_factory=dict, repr=False)
-    seabed: GridSurface | None = field(default=None, repr=False)
+    seabed: GridSurface | Recorded | None = field(default=None, repr=False)
     cylinders: dict[int, Cylinder] = field(default_factory=dict, repr=False)
     other_spacings: tuple[Spacing, ...] = ()
     other_piles: tuple[PileFit, ...] = ()
     segmentation: dict[str, Any] = field(default_factory=dict)
     frames: tuple[FrameFit, ...] = ()
-    rejected: tuple[dict[str, Any], ...] = ()
+    rejected: tuple[RejectedPile, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The result as JSON-ready dicts and lists (``piles.json``)."""
@@ -293,10 +344,29 @@ class PileResult:
             "parameters": to_jsonable(self.parameters),
             "segmentation": to_jsonable(self.segmentation),
             "frames": [f.to_dict() for f in self.frames],
-            "rejected": to_jsonable(list(self.rejected)),
+            "rejected": [r.to_dict() for r in self.rejected],
             "warnings": list(self.warnings),
             "seabed": self.seabed.to_dict() if self.seabed is not None else None,
         }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PileResult:
+        """The result of a ``piles.json`` (:func:`mbinspect.results.read_result`): ``to_dict()``
+        of what it returns is ``d``; the soundings, models and seabed grid behind the answer
+        are not in the file (the seabed's summary is kept)."""
+        others = tuple(PileFit.from_dict(p) for p in d.get("other_piles", []))
+        spacings = tuple(Spacing.from_dict(s) for s in d.get("spacings", []))
+        split = len(spacings)
+        if others and spacings:  # the other method's spacings follow, under their own method
+            split = next((k for k, s in enumerate(spacings) if s.method != spacings[0].method), split)
+        seabed = d.get("seabed")
+        return cls(tuple(PileFit.from_dict(p) for p in d["piles"]), spacings[:split],
+                   tuple(d.get("iterations", [])), dict(d.get("parameters", {})),
+                   tuple(d.get("warnings", [])),
+                   seabed=None if seabed is None else Recorded(seabed), other_spacings=spacings[split:],
+                   other_piles=others, segmentation=dict(d.get("segmentation", {})),
+                   frames=tuple(FrameFit.from_dict(f) for f in d.get("frames", [])),
+                   rejected=tuple(RejectedPile.from_dict(r) for r in d.get("rejected", [])))
 
     @property
     def ok(self) -> bool:

@@ -24,7 +24,7 @@ from .iterate import iterate
 from .match import apply_design
 from .options import PileOptions
 from .radius import JointRadius, joint_radius, with_radius_sigma
-from .results import PileFit, PileResult, Spacing
+from .results import PileFit, PileResult, RejectedPile, Spacing
 from .separate import separate_piles
 from .space import spacings
 from .split import segment_piles
@@ -83,7 +83,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     m = measure_piles(data, opts, progress=progress)
     if not m.piles:
         raise DataError("no pile found: " + "; ".join(
-            f"the candidate near ({r['x']:.1f}, {r['y']:.1f}) is not a pile ({', '.join(r['reasons'])})"
+            f"the candidate near ({r.x:.1f}, {r.y:.1f}) is not a pile ({', '.join(r.reasons)})"
             for r in m.rejected))
     parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
                   "joint_radius": None if m.joint_radius is None else m.joint_radius.to_dict(),
@@ -103,7 +103,7 @@ class MeasuredPiles:
 
     piles: tuple[PileFit, ...]
     covs: dict[int, np.ndarray]
-    rejected: tuple[dict[str, Any], ...]
+    rejected: tuple[RejectedPile, ...]
     warnings: tuple[str, ...]
     cloud: PointCloud
     segments: dict[int, Any] = field(default_factory=dict)
@@ -192,11 +192,10 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     segs, seg_info, fits, iterations, unmeasured, piles, kept, rejected = j
     for pid, why in unmeasured.items():
         c = segs[pid].points.mean(axis=0)
-        rejected.append({"x": float(c[0]), "y": float(c[1]), "z": float(segs[pid].points[:, 2].max()),
-                         "top_height": None, "tilt_deg": None, "radius_fitted": None,
-                         "reasons": [f"not measurable: {why.split(': ', 1)[-1]}"]})
-    warnings += [f"{'candidate' if r['reasons'][0].startswith('not measurable') else 'not a pile'} near "
-                 f"({r['x']:.1f}, {r['y']:.1f}): {', '.join(r['reasons'])}" for r in rejected]
+        rejected.append(RejectedPile(float(c[0]), float(c[1]), float(segs[pid].points[:, 2].max()), None,
+                                     None, None, (f"not measurable: {why.split(': ', 1)[-1]}",)))
+    warnings += [f"{'candidate' if r.reasons[0].startswith('not measurable') else 'not a pile'} near "
+                 f"({r.x:.1f}, {r.y:.1f}): {', '.join(r.reasons)}" for r in rejected]
     return MeasuredPiles(
         piles, {new: fits[old].cov for new, old in kept.items()}, tuple(rejected), tuple(warnings), cloud,
         {new: segs[old] for new, old in kept.items() if old in segs}, seabed,
@@ -216,12 +215,12 @@ class _Judged(NamedTuple):
     unmeasured: dict[int, str]
     piles: tuple[PileFit, ...]
     kept: dict[int, int]
-    rejected: list[dict[str, Any]]
+    rejected: list[RejectedPile]
 
 
 def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: PileOptions, *,
                  design: Design | None, parameters: dict[str, Any], warnings: list[str],
-                 rejected: list[dict[str, Any]], measured: MeasuredPiles | None = None) -> PileResult:
+                 rejected: list[RejectedPile], measured: MeasuredPiles | None = None) -> PileResult:
     """The last stages of :func:`locate_piles`, once every pile of a survey is measured:
     matched to the design, grouped into jackets, every spacing and frame; on a tiled
     survey, after the tiles' piles are merged.
@@ -267,7 +266,7 @@ def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: Pi
 
 
 def _standing(piles: tuple[PileFit, ...], seabed: Any, opts: PileOptions
-              ) -> tuple[tuple[PileFit, ...], dict[int, int], list[dict[str, Any]]]:
+              ) -> tuple[tuple[PileFit, ...], dict[int, int], list[RejectedPile]]:
     """The candidates that can be standing piles, renumbered from 1 in their order; the map
     new id -> old id; the others with their reasons."""
     kept: list[PileFit] = []

@@ -48,7 +48,7 @@ class PilesPipeline:
                  ) -> TilePart:
         m = measure_piles(cloud, options)
         keep = tuple(p for p in m.piles if owns(p.x, p.y))
-        rejected = tuple(o for o in m.rejected if owns(o["x"], o["y"]))
+        rejected = tuple(o for o in m.rejected if owns(o.x, o.y))
         return TilePart(keep, rejected, {p.id: m.covs[p.id] for p in keep}, m.warnings)
 
     def merge(self, parts: Sequence[TilePart], options: PileOptions, extra: Mapping[str, Any],

@@ -2,20 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..geometry import convex_hull, min_area_rectangle, polygon_area
 from ..segment import components
 from .ground import Seabed
-from .results import Reef
+from .results import OtherObject, Reef
 
 __all__ = ["paper_clusters"]
 
 
 def paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, eps: float,
-                    min_area: float) -> tuple[list[Reef], list[dict[str, Any]]]:
+                    min_area: float) -> tuple[list[Reef], list[OtherObject]]:
     """The paper's individual reefs: Euclidean clusters of the off-plane points.
 
     Parameters
@@ -44,7 +42,7 @@ def paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, e
     Returns
     -------
     reefs : list of Reef
-    others : list of dict
+    others : list of OtherObject
     """
     idx = np.flatnonzero(is_reef)
     lab = components(points[idx], eps=eps, min_points=5)
@@ -58,8 +56,8 @@ def paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, e
         z_top = float(p[:, 2].max())
         rect = min_area_rectangle(p[:, :2])
         if area < min_area:
-            others.append({"x": float(x), "y": float(y), "height": z_top - z_sea, "area": area,
-                           "z_top": z_top, "n_points": len(p)})
+            others.append(OtherObject(float(x), float(y), z_top - z_sea, area, z_top, len(p),
+                                      "smaller than `min_area`"))
             continue
         h = z_top - z_sea
         reefs.append(Reef(0, float(x), float(y), z_sea, z_top, h, area, rect.length, rect.width,

@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import Evaluation
-from ..outputs import to_jsonable
+from ..outputs import Recorded, record_from, to_jsonable
 from .terrain import TerrainMask
 
-__all__ = ["Reef", "ReefResult"]
+__all__ = ["Reef", "OtherObject", "ReefResult"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,46 @@ class Reef:
         d["sources"] = list(self.sources)
         return to_jsonable(d)
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Reef:
+        """The reef of a ``reefs.json`` row (:meth:`to_dict`'s inverse)."""
+        return record_from(cls, d)
+
+
+@dataclass(frozen=True)
+class OtherObject:
+    """An object on the seabed that is not taken for a reef, and why.
+
+    Attributes
+    ----------
+    x, y : float
+        Its centre (m).
+    height, area : float
+        Above the seabed (m) and its footprint (m²).
+    z_top : float
+        Its highest sounding (m).
+    n_points : int
+    reason : str
+    """
+
+    x: float
+    y: float
+    height: float
+    area: float
+    z_top: float
+    n_points: int
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """One row of ``others`` in ``reefs.json``."""
+        return to_jsonable({"x": self.x, "y": self.y, "height": self.height, "area": self.area,
+                            "z_top": self.z_top, "n_points": self.n_points, "reason": self.reason})
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> OtherObject:
+        """The record of an ``others`` row."""
+        return record_from(cls, d)
+
 
 @dataclass(frozen=True, eq=False)
 class ReefResult:
@@ -79,13 +119,13 @@ class ReefResult:
 
     reefs: tuple[Reef, ...]
     groups: tuple[dict[str, Any], ...]
-    others: tuple[dict[str, Any], ...]
+    others: tuple[OtherObject, ...]
     seabed: dict[str, Any]
     filters: dict[str, Any]
     evaluation: Evaluation | None
     parameters: dict[str, Any]
     warnings: tuple[str, ...] = ()
-    region: TerrainMask | None = field(default=None, repr=False)
+    region: TerrainMask | Recorded | None = field(default=None, repr=False)
     surface: Any = field(default=None, repr=False)
     footprint: dict[str, Any] = field(default_factory=dict)
     reference_xy: np.ndarray | None = field(default=None, repr=False)
@@ -102,9 +142,34 @@ class ReefResult:
             ev["reference_xy"] = self.reference_xy
         return to_jsonable({
             "reefs": [r.to_dict() for r in self.reefs],
-            "groups": list(self.groups), "others": list(self.others),
+            "groups": list(self.groups), "others": [o.to_dict() for o in self.others],
             "seabed": self.seabed, "filters": self.filters, "evaluation": ev,
             "parameters": self.parameters, "warnings": list(self.warnings),
             "region": self.region.to_dict() if self.region is not None else None,
             "footprint": self.footprint,
         })
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> ReefResult:
+        """The result of a ``reefs.json`` (:func:`mbinspect.results.read_result`): ``to_dict()``
+        of what it returns is ``d``; the soundings and the seabed surface behind the answer
+        are not in the file (the terrain mask's summary is kept)."""
+        reefs = tuple(Reef.from_dict(r) for r in d["reefs"])
+        ev, ref_xy = d.get("evaluation"), None
+        evaluation = None
+        if ev is not None:
+            index = {r.id: k for k, r in enumerate(reefs)}
+            refs = [m["reference"] for m in ev["matches"]] + list(ev["unmatched_references"])
+            where = {ref: j for j, ref in enumerate(refs)}
+            evaluation = Evaluation(ev["tp"], ev["fp"], ev["fn"], ev["tolerance"],
+                                    tuple((index[m["reef"]], where[m["reference"]], m["distance"])
+                                          for m in ev["matches"]),
+                                    tuple(index[i] for i in ev["unmatched_reefs"]),
+                                    tuple(where[ref] for ref in ev["unmatched_references"]), tuple(refs))
+            ref_xy = None if ev.get("reference_xy") is None else np.asarray(ev["reference_xy"], float)
+        region = d.get("region")
+        others = tuple(OtherObject.from_dict(o) for o in d.get("others", []))
+        return cls(reefs, tuple(d.get("groups", [])), others,
+                   dict(d.get("seabed") or {}), dict(d.get("filters") or {}), evaluation,
+                   dict(d.get("parameters", {})), tuple(d.get("warnings", [])),
+                   None if region is None else Recorded(region), None, dict(d.get("footprint") or {}), ref_xy)

@@ -23,7 +23,7 @@ from .group import number_reefs
 from .measure import measure_reef
 from .options import ReefOptions
 from .paper import paper_clusters
-from .results import Reef, ReefResult
+from .results import OtherObject, Reef, ReefResult
 from .score import score_reefs
 from .split import split_reefs
 from .terrain import screen_terrain
@@ -170,7 +170,7 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
         is_reef = (np.abs(h_all) > opts.plane_threshold) & (h_all > 0)
     report(0.7)
     reefs: list[Reef] = []
-    others: list[dict[str, Any]] = []
+    others: list[OtherObject] = []
     used_area = None
     if is_reef.any() and local:
         reefs, others, used_area, members = reef_islands(kept, is_reef, surf, h_all, opts, ping=ping,
@@ -212,7 +212,7 @@ ISLAND_CELL = 10.0
 
 def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
                  options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
-                 ) -> tuple[list[Reef], list[dict[str, Any]], float, list[np.ndarray]]:
+                 ) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
     """:func:`single_reefs` on each group of reef points at least :data:`ISLAND_GAP` m from
     the others, so that time and memory follow the reef points, not their extent.
 
@@ -234,7 +234,7 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     order = np.argsort(key, kind="stable")
     skey = key[order]
     reefs: list[Reef] = []
-    others: list[dict[str, Any]] = []
+    others: list[OtherObject] = []
     areas: list[float] = []
     members: list[np.ndarray] = []
     group_of_row = group[inverse.ravel()]
@@ -258,7 +258,7 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
 
 def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
                  options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
-                 ) -> tuple[list[Reef], list[dict[str, Any]], float, list[np.ndarray]]:
+                 ) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
     """The single reefs among the reef points, each measured (our method).
 
     Footprints split into single reefs (:func:`split_reefs`), each measured
@@ -297,7 +297,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     -------
     reefs : list of Reef
         Unnumbered (id 0).
-    others : list of dict
+    others : list of OtherObject
         Objects smaller than ``min_area``: position, height, area, top, points.
     reef_area : float
         The single-reef area used (m²).
@@ -357,10 +357,9 @@ def _members(points: np.ndarray, is_reef: np.ndarray, raster: Raster, parts: lis
     return [rows[order[bounds[k]:bounds[k + 1]]] for k in range(len(parts))]
 
 
-def _other(reef: Reef, reason: str) -> dict[str, Any]:
+def _other(reef: Reef, reason: str) -> OtherObject:
     """An object that is not a reef, as ``others`` lists it."""
-    return {"x": reef.x, "y": reef.y, "height": reef.height, "area": reef.area, "z_top": reef.z_top,
-            "n_points": reef.n_points, "reason": reason}
+    return OtherObject(reef.x, reef.y, reef.height, reef.area, reef.z_top, reef.n_points, reason)
 
 
 def _not_a_reef(reef: Reef, cells: np.ndarray, raster: Raster, is_reef: np.ndarray, ping: np.ndarray | None,

@@ -60,7 +60,7 @@ class ReefsPipeline:
                  ) -> TilePart:
         r = extract_reefs(cloud, options)
         return TilePart(tuple(x for x in r.reefs if owns(x.x, x.y)),
-                        tuple(o for o in r.others if owns(o["x"], o["y"])), {}, r.warnings,
+                        tuple(o for o in r.others if owns(o.x, o.y)), {}, r.warnings,
                         {"seabed": r.seabed, "filters": r.filters,
                          "reef_area": r.footprint.get("reef_area_used")})
 

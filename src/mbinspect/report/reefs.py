@@ -63,7 +63,7 @@ def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
         if len(result.reefs) <= 400:
             ax.annotate(str(r.id), (r.x, r.y), fontsize=5 if bounds is None else 9, ha="center", va="center")
     for o in result.others:
-        ax.plot(o["x"], o["y"], "x", color="orange", ms=4)
+        ax.plot(o.x, o.y, "x", color="orange", ms=4)
     if ev is not None and result.reference_xy is not None:
         ref = np.asarray(result.reference_xy)
         miss = [j for j in ev.unmatched_references]
