@@ -27,9 +27,7 @@ mbinspect.errors.ParameterError: radius: -1.0; expected a positive finite number
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import math
 from collections.abc import Callable, Iterator
 from dataclasses import MISSING, dataclass, field
 from typing import Any
@@ -38,8 +36,8 @@ from . import checks
 from .errors import ParameterError
 from .outputs import to_jsonable
 
-__all__ = ["CHOICES", "OptionSpec", "option", "Options", "add_flags", "given_options", "flag_names",
-           "parse_crop", "crop_value", "typed_parser"]
+__all__ = ["CHOICES", "OptionSpec", "option", "Options", "flag_names", "flag_text", "parse_crop",
+           "crop_value"]
 
 #: Every string option's choices, by registry key.
 CHOICES: dict[str, tuple[str, ...]] = {
@@ -199,7 +197,7 @@ class Options:
 # ----------------------------------------------------------------------------- command line
 
 
-def _flag(f: dataclasses.Field[Any], spec: OptionSpec) -> str:
+def flag_text(f: dataclasses.Field[Any], spec: OptionSpec) -> str:
     return "--" + (spec.flag or f.name.replace("_", "-"))
 
 
@@ -215,98 +213,15 @@ def flag_names(cls: type[Options]) -> dict[str, str]:
     -------
     dict
     """
-    return {f.name: _flag(f, spec) for f, spec in cls.specs() if spec.cli}
+    return {f.name: flag_text(f, spec) for f, spec in cls.specs() if spec.cli}
 
 
-def typed_parser(kind: type, name: str) -> Callable[[str], Any]:
-    """An argparse ``type=`` for ``kind`` (int or float) that refuses non-finite numbers.
-
-    Parameters
-    ----------
-    kind : type
-        ``int`` or ``float``.
-    name : str
-        The option's name.
-
-    Returns
-    -------
-    callable
-        Text -> value; raises ``argparse.ArgumentTypeError`` on bad text.
-    """
-    def parse(text: str) -> Any:
-        try:
-            value = kind(text)
-        except ValueError:
-            what = "whole number" if kind is int else "number"
-            raise argparse.ArgumentTypeError(f"{text!r} is not a {what}") from None
-        if isinstance(value, float) and not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-        return value
-
-    parse.__name__ = kind.__name__  # argparse names the type in its messages
-    return parse
 
 
-def _annotated(f: dataclasses.Field[Any]) -> type:
-    """The type a field's annotation names first (``"float | None"`` -> float)."""
-    name = str(f.type).split("|")[0].strip()
-    return {"float": float, "int": int, "bool": bool}.get(name, str)
 
 
-def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: type[Options], *,
-              skip: tuple[str, ...] = ()) -> None:
-    """Add one flag per command-line option of ``cls`` to ``group``.
-
-    Every flag's destination is ``opt_<name>`` with default None, so that only the
-    options given on the command line override the class's defaults
-    (:func:`given_options`). A boolean option becomes ``--flag`` / ``--no-flag``.
-
-    Parameters
-    ----------
-    group : argparse group or parser
-    cls : type
-        An options class.
-    skip : tuple of str
-        Options not to offer.
-    """
-    for f, spec in cls.specs():
-        if not spec.cli or f.name in skip:
-            continue
-        default = None if f.default is MISSING else f.default
-        kind = spec.kind or (type(default) if default is not None else _annotated(f))
-        unit = f" ({spec.unit})" if spec.unit else ""
-        shown = "required" if f.default is MISSING else ("none" if default is None else default)
-        text = f"{spec.help}{unit}; " + ("required" if f.default is MISSING else f"default {shown}")
-        flag = _flag(f, spec)
-        dest = f"opt_{f.name}"
-        if kind is bool:
-            group.add_argument(flag, dest=dest, default=None, action=argparse.BooleanOptionalAction,
-                               help=text)
-        elif spec.choices is not None:
-            group.add_argument(flag, dest=dest, default=None, choices=CHOICES[spec.choices], help=text)
-        else:
-            parse = spec.parse or typed_parser(kind, f.name)
-            metavar = spec.metavar or (spec.unit.upper() if spec.unit else kind.__name__.upper())
-            group.add_argument(flag, dest=dest, default=None, type=parse, help=text, metavar=metavar)
 
 
-def given_options(args: argparse.Namespace, cls: type[Options]) -> dict[str, Any]:
-    """The options of ``cls`` given on the command line (name -> value).
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        Parsed with flags from :func:`add_flags`.
-    cls : type
-        The options class.
-
-    Returns
-    -------
-    dict
-    """
-    names = {f.name for f, _ in cls.specs()}
-    return {k[4:]: v for k, v in vars(args).items()
-            if k.startswith("opt_") and k[4:] in names and v is not None}
 
 
 # ----------------------------------------------------------------------------- crop
@@ -326,7 +241,8 @@ def parse_crop(text: str) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of numbers") from None
+        raise ParameterError(f"crop: {text!r}; expected a comma-separated list of numbers",
+                             option="crop") from None
     return values
 
 

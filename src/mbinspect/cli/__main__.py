@@ -1,0 +1,5 @@
+"""``python -m mbinspect.cli``: the command line."""
+
+from .main import run
+
+run()

@@ -1,0 +1,125 @@
+"""``mbinspect simulate``: a simulated survey with its exact truth."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..errors import ParameterError
+from .common import Reporter, subcommand
+from .flags import typed_parser
+
+
+def _add_simulate_options(p: argparse.ArgumentParser) -> None:
+    from ..simulate import PRESETS, option_fields
+    from .flags import typed_parser
+
+    seen: set[str] = set()
+    for preset in PRESETS:
+        g = p.add_argument_group(f"{preset} options (defaults in 'mbinspect simulate "
+                                 f"{preset} --show-options')")
+        for f in option_fields(preset):
+            if f.name in seen:
+                continue
+            seen.add(f.name)
+            flag = "--" + f.name.replace("_", "-")
+            kind = type(f.default)
+            if kind is bool:
+                g.add_argument(flag, dest=f"opt_{f.name}", type=_parse_bool, metavar="BOOL")
+            elif kind is str:
+                g.add_argument(flag, dest=f"opt_{f.name}", metavar="TEXT")
+            else:
+                g.add_argument(flag, dest=f"opt_{f.name}", type=typed_parser(kind, f.name),
+                               metavar=kind.__name__.upper())
+
+
+def _parse_bool(text: str) -> bool:
+    if text.lower() in ("1", "true", "yes", "on"):
+        return True
+    if text.lower() in ("0", "false", "no", "off"):
+        return False
+    raise argparse.ArgumentTypeError(f"{text!r} is not true or false")
+
+
+def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
+
+    from ..outputs import output_dir
+    from ..simulate import DEFAULT_SONAR, default_options, option_fields, simulate, write_bundle
+
+    names = {f.name for f in option_fields(args.preset)}
+    given = {k[4:]: v for k, v in vars(args).items() if k.startswith("opt_") and v is not None}
+    foreign = sorted(set(given) - names)
+    if foreign:
+        raise ParameterError(f"{foreign[0]}: not an option of the {args.preset} preset; expected one "
+                             f"of {', '.join(sorted(names))}", option=foreign[0])
+    if args.show_options:
+        values = default_options(args.preset, given.get("sonar", DEFAULT_SONAR))
+        for f in option_fields(args.preset):
+            print(f"--{f.name.replace('_', '-'):24s} {values[f.name]}")
+        return 0
+    out = Path(args.out) if args.out else Path(f"sim-{args.preset}-{args.seed}")
+    ext = {"xyz": ".xyz", "las": ".las", "laz": ".laz", "ply": ".ply", "npz": ".npz"}[args.format]
+    if args.per_line:
+        return _simulate_lines(args, given, out, ext, rep, argv)
+    with output_dir(out, overwrite=args.overwrite) as tmp:
+        t = time.perf_counter()
+        sim = simulate(args.preset, seed=args.seed, progress=rep.progress("ray casting"),
+                       force=args.force, **given)
+        rep.debug(f"simulated {len(sim.cloud):,} soundings in {time.perf_counter() - t:.2f} s")
+        cloud_path = tmp / f"soundings{ext}"
+        reference = sim.reference_rows(seed=args.seed) if sim.truth["reefs"] else None
+        write_bundle(tmp, {**sim.truth, "command_line": ["mbinspect", *argv]}, cloud=sim.cloud,
+                     cloud_name=cloud_path.name, labels=sim.labels, ident=sim.ident, reference=reference)
+    n_obj = (f"{len(sim.truth['piles'])} piles" if sim.truth["piles"]
+             else f"{len(sim.truth['reefs'])} reefs")
+    rep.info(f"{args.preset}: {len(sim.cloud):,} soundings, {n_obj}, written to "
+             f"{out / cloud_path.name} with truth.json")
+    return 0
+
+
+def _simulate_lines(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: str, rep: Reporter,
+                    argv: Sequence[str]) -> int:
+    """``simulate --per-line``: one file per survey line, streamed line by line."""
+    from ..outputs import output_dir
+    from ..simulate import reef_reference_rows, simulate_lines, write_bundle
+
+    with output_dir(out, overwrite=args.overwrite) as tmp:
+        t = time.perf_counter()
+        truth = simulate_lines(args.preset, tmp, seed=args.seed, suffix=ext,
+                               progress=rep.progress("lines"), **given)
+        reference = reef_reference_rows(truth, seed=args.seed) if truth["reefs"] else None
+        write_bundle(tmp, {**truth, "command_line": ["mbinspect", *argv]}, reference=reference)
+        rep.debug(f"simulated {truth['n_soundings']:,} soundings in {time.perf_counter() - t:.2f} s")
+    rep.info(f"{args.preset}: {truth['n_soundings']:,} soundings in {len(truth['files'])} line files in "
+             f"{out}/ with truth.json")
+    return 0
+
+
+def add_parser(sub: Any) -> None:
+    """``mbinspect simulate``: its flags."""
+    p = subcommand(sub, "simulate", "simulate a multibeam survey with exact truth",
+             "Ray-cast a multibeam survey over a scene whose piles and reefs are known exactly; "
+             "write the soundings, truth.json, labels.npz and design.csv (jacket) or reference.csv "
+             "(reef-field).",
+             "examples:\n  mbinspect simulate jacket --seed 3 --out sim3\n"
+             "  mbinspect simulate jacket --tilt-max-deg 5 --noise-scale 2 --format laz\n"
+             "  mbinspect simulate reef-field --touching-pairs 4 --sand-wave-amplitude 0.4\n"
+             "  mbinspect simulate jacket --show-options")
+    p.add_argument("preset", choices=["jacket", "wharf", "reef-field"])
+    p.add_argument("--seed", type=typed_parser(int, "seed"), default=0, help="random seed (default 0)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default sim-PRESET-SEED)")
+    p.add_argument("--format", choices=["xyz", "las", "laz", "ply", "npz"], default="xyz",
+                   help="format of the soundings file (default xyz)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
+    p.add_argument("--force", action="store_true",
+                   help="simulate even a survey of more than 50 million soundings")
+    p.add_argument("--show-options", action="store_true",
+                   help="list the preset's options and defaults, then stop")
+    p.add_argument("--per-line", action="store_true",
+                   help="write one file per survey line (line_001.laz ...), streaming line by line: a survey "
+                        "of any size in the memory of one line")
+    _add_simulate_options(p)
+    p.set_defaults(func=_cmd_simulate)

@@ -1,0 +1,65 @@
+"""``mbinspect soundings``: the soundings behind one reef or pile of a saved result."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .common import subcommand
+
+
+def add_parser(sub: Any) -> None:
+    """``mbinspect soundings RESULT.json ID``."""
+    p = subcommand(sub, "soundings", "write the soundings behind one reef or pile of a result",
+             "Read the files and pings a reef or pile of RESULT.json records under `sources` and write "
+             "the soundings of those pings inside the object (a reef's outline; a pile's radius plus "
+             "--margin) as CSV: x, y, z, file, ping, and beam and beam_angle when the file has them.",
+             "example:\n  mbinspect soundings reefs-out/reefs.json 17 --out reef17.csv")
+    p.add_argument("result", help="a reefs.json or piles.json written by mbinspect")
+    p.add_argument("id", type=int, help="the reef or pile id")
+    p.add_argument("--out", metavar="CSV", help="output CSV (default: standard output)")
+    p.add_argument("--margin", type=float, default=0.5, metavar="M",
+                   help="metres around the object kept (default 0.5)")
+    p.set_defaults(func=cmd_soundings)
+
+
+def cmd_soundings(args: argparse.Namespace, rep: Any, argv: Sequence[str]) -> int:
+    """The soundings of one object of a result, as CSV."""
+    from ..errors import InputError, ParameterError
+    from ..survey.trace import object_soundings
+
+    path = Path(args.result)
+    try:
+        result = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a JSON result of mbinspect ({exc})") from None
+    kind = "reefs" if "reefs" in result else "piles" if "piles" in result else None
+    if kind is None:
+        raise InputError(f"{path}: neither a reefs.json nor a piles.json (no 'reefs' or 'piles' list)")
+    found = [o for o in result[kind] if o.get("id") == args.id]
+    if not found:
+        ids = [o.get("id") for o in result[kind]]
+        raise ParameterError(f"id: {args.id}; expected one of the {kind} in {path} "
+                             f"({min(ids) if ids else '-'}..{max(ids) if ids else '-'})", option="id")
+    params = result.get("parameters", {})
+    reading = dict(params.get("reading") or {})
+    if reading.get("crs") is None:
+        reading["crs"] = (params.get("input") or {}).get("crs")
+    rows = object_soundings(kind, found[0], margin=args.margin, read_options=reading)
+    from ..outputs import atomic_path
+
+    header = list(rows[0].keys()) if rows else ["x", "y", "z", "file", "ping"]
+    text = ",".join(header) + "\n" + "".join(",".join(str(r[h]) for h in header) + "\n" for r in rows)
+    if args.out:
+        with atomic_path(args.out) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+        rep.info(f"{len(rows):,} soundings of {kind[:-1]} {args.id} in {args.out}")
+    else:
+        sys.stdout.write(text)
+    return 0

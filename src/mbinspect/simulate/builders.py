@@ -1,0 +1,237 @@
+"""Each preset's scene and survey lines built from its options."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from ..checks import fail
+from ..errors import ParameterError
+from ..geometry import (
+    bearing_to_vector,
+)
+from .presets import (
+    JacketOptions,
+    ReefFieldOptions,
+    WharfOptions,
+    rakes,
+)
+from .scene import Boulder, Box, Pile, Reef, Scene, Seabed, reef_boxes, reef_gap
+from .sonar import Line, Sonar, Survey
+
+
+def build_jacket(opt: JacketOptions, rng: np.random.Generator, sonar: Sonar
+            ) -> tuple[Scene, Survey, dict[str, Any]]:
+    h = opt.side / 2
+    seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
+                    sand_wave_amplitude=opt.sand_wave_amplitude, roughness=opt.roughness,
+                    extent=opt.line_extent + opt.line_offset + 60, seed=int(rng.integers(2**31)))
+    design = [(-h, -h), (h, -h), (-h, h), (h, h)]  # ids 1..4: SW, SE, NW, NE
+    piles = []
+    for dx, dy in design:
+        off = rng.normal(0.0, opt.position_scatter, 2)
+        piles.append(Pile(dx + off[0], dy + off[1], opt.top + rng.normal(0, opt.top_scatter),
+                          opt.radius, tilt_deg=rng.uniform(0, opt.tilt_max_deg),
+                          tilt_bearing_deg=rng.uniform(0, 360), bottom_z=opt.seabed - 15))
+    boulders = []
+    for _ in range(opt.boulders):
+        while True:
+            p = rng.uniform(-h - 8, h + 8, 2)
+            if min(math.hypot(p[0] - q.x, p[1] - q.y) for q in piles) > 4:
+                break
+        r = rng.uniform(0.3, 0.6)
+        boulders.append(Boulder(p[0], p[1], float(seabed.elevation(p[0], p[1])) - 0.3 * r, r))
+    e, o = opt.line_extent, h + opt.line_offset
+    catalogue = {
+        "west": [((-o, -e), (-o, e))], "east": [((o, e), (o, -e))],
+        "south": [((e, -o), (-e, -o))], "north": [((-e, o), (e, o))],
+        "tops": [((-h, -e), (-h, e)), ((h, e), (h, -e))],
+    }
+    lines = []
+    for name in [s.strip() for s in opt.lines.split(",") if s.strip()]:
+        if name not in catalogue:
+            raise fail("lines", name, f"one of {', '.join(catalogue)}")
+        lines += [Line(v, ping_spacing=opt.ping_spacing) for v in catalogue[name]]
+    scene = Scene(seabed, tuple(piles), boulders=tuple(boulders),
+                  origin=(opt.origin_x, opt.origin_y))
+    extra = {"design": [{"id": i + 1, "x": dx + opt.origin_x, "y": dy + opt.origin_y}
+                        for i, (dx, dy) in enumerate(design)]}
+    return scene, Survey(tuple(lines), sonar), extra
+
+
+
+
+def build_wharf(opt: WharfOptions, rng: np.random.Generator, sonar: Sonar
+           ) -> tuple[Scene, Survey, dict[str, Any]]:
+    jacket_rakes = rakes(opt.rakes)
+    pitch = opt.side + opt.gap
+    h = opt.side / 2
+    half = (len(jacket_rakes) - 1) * pitch / 2 + h
+    seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
+                    roughness=opt.roughness, extent=half + opt.line_offset + 60,
+                    seed=int(rng.integers(2**31)))
+    piles: list[Pile] = []
+    design: list[dict[str, Any]] = []
+    for g, rake in enumerate(jacket_rakes):
+        cx = -(len(jacket_rakes) - 1) * pitch / 2 + g * pitch
+        tilt = math.degrees(math.atan(1.0 / rake)) if rake else 0.0
+        for dx, dy in ((-h, -h), (h, -h), (-h, h), (h, h)):
+            off = rng.normal(0.0, opt.position_scatter, 2)
+            outward = math.degrees(math.atan2(dx, dy)) % 360.0
+            piles.append(Pile(cx + dx + off[0], dy + off[1], opt.top + rng.normal(0, opt.top_scatter),
+                              opt.radius, tilt_deg=tilt, tilt_bearing_deg=outward, bottom_z=opt.seabed - 15))
+            design.append({"group": g + 1, "id": len(design) + 1, "x": cx + dx + opt.origin_x,
+                           "y": dy + opt.origin_y})
+    e, o = half + 25.0, h + opt.line_offset
+    lines = [Line(((-e, -o), (e, -o)), ping_spacing=opt.ping_spacing),
+             Line(((e, o), (-e, o)), ping_spacing=opt.ping_spacing),
+             Line(((-e, -h), (e, -h)), ping_spacing=opt.ping_spacing),
+             Line(((e, h), (-e, h)), ping_spacing=opt.ping_spacing)]
+    scene = Scene(seabed, tuple(piles), origin=(opt.origin_x, opt.origin_y))
+    jackets = [{"group": g + 1, "rake": r} for g, r in enumerate(jacket_rakes)]
+    return scene, Survey(tuple(lines), sonar), {"design": design, "jackets": jackets}
+
+
+def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
+                ) -> tuple[Scene, Survey, dict[str, Any]]:
+    kinds = [s.strip() for s in opt.groups.split(",") if s.strip()]
+    if not kinds:
+        raise ParameterError("groups: no reef group given; expected e.g. cross2,cross1")
+    ng = len(kinds)
+    cols = int(math.ceil(math.sqrt(ng)))
+    rows = int(math.ceil(ng / cols))
+    seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
+                    sand_wave_amplitude=opt.sand_wave_amplitude,
+                    sand_wave_length=opt.sand_wave_length,
+                    sand_wave_bearing_deg=rng.uniform(0, 180), roughness=opt.roughness,
+                    extent=opt.group_spacing * max(rows, cols) / 2 + 90,
+                    seed=int(rng.integers(2**31)))
+    side = int(math.ceil(math.sqrt(opt.per_group)))
+    reefs: list[Reef] = []
+
+    # one sink per reef id, drawn up front so that a reef rebuilt for the shore (below) keeps
+    # its own; the table's size bounds the ids, not the field (ids stay in the hundreds)
+    sunk = rng.uniform(0.0, opt.burial_max, 10_000) if opt.burial_max > 0 else np.zeros(10_000)
+
+    def make(rid: int, kind: str, x: float, y: float, b: float, g: int) -> Reef:
+        z = float(seabed.elevation(x, y)) - 0.1 - float(sunk[rid % len(sunk)])
+        return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, opt.reef_scale), group=g)
+
+    for g, kind in enumerate(kinds):
+        gx = (g % cols - (cols - 1) / 2) * opt.group_spacing
+        gy = ((rows - 1) / 2 - g // cols) * opt.group_spacing
+        for k in range(opt.per_group):
+            nominal = (gx + (k % side - (side - 1) / 2) * opt.grid_spacing,
+                       gy + (k // side - (side - 1) / 2) * opt.grid_spacing)
+            kk = kind if kind != "mixed" else ("cross2", "cross1", "hollow", "triangle")[k % 4]
+            for _ in range(200):
+                x, y = np.asarray(nominal) + rng.normal(0.0, opt.jitter, 2)
+                cand = make(len(reefs) + 1, kk, x, y, rng.uniform(0, 90), g + 1)
+                if all(reef_gap(cand, r) > 1.2 for r in reefs
+                       if math.hypot(r.x - x, r.y - y) < 8):
+                    break
+            reefs.append(cand)
+    # bring chosen neighbour pairs close together or into contact
+    targets = [(rng.uniform(0.3, 0.9)) for _ in range(opt.close_pairs)]
+    targets += [0.0] * opt.touching_pairs
+    moved: set[int] = set()
+    for target in targets:
+        order = rng.permutation(len(reefs))
+        for i in order:
+            if i in moved:
+                continue
+            a = reefs[i]
+            near = [j for j in range(len(reefs)) if j != i and j not in moved
+                    and reefs[j].group == a.group
+                    and math.hypot(reefs[j].x - a.x, reefs[j].y - a.y) < opt.grid_spacing * 1.5]
+            if not near:
+                continue
+            j = min(near, key=lambda j: math.hypot(reefs[j].x - a.x, reefs[j].y - a.y))
+            b = reefs[j]
+            v = np.array([a.x - b.x, a.y - b.y])
+            dist = float(np.hypot(*v))
+            v /= dist
+
+            def at(s: float, b: Reef = b, v: np.ndarray = v) -> Reef:
+                return make(b.id, b.kind, b.x + s * v[0], b.y + s * v[1], b.bearing_deg, b.group)
+
+            lo, hi = 0.0, dist
+            for _ in range(40):
+                mid = (lo + hi) / 2
+                if reef_gap(a, at(mid)) > target:
+                    lo = mid
+                else:
+                    hi = mid
+            new = at(lo if target > 0 else hi)
+            others = [r for k2, r in enumerate(reefs) if k2 not in (i, j)
+                      and math.hypot(r.x - new.x, r.y - new.y) < 8]
+            if all(reef_gap(new, r) > 1.0 for r in others):
+                reefs[j] = new
+                moved.update((i, j))
+                break
+    xy = np.array([[r.x, r.y] for r in reefs])
+    lo, hi = xy.min(axis=0) - 12, xy.max(axis=0) + 12
+    if opt.shore_width > 0:
+        seabed = dataclasses.replace(seabed, shore_start=float(hi[1]) + 3.0,
+                                     shore_width=opt.shore_width)
+        reefs = [make(r.id, r.kind, r.x, r.y, r.bearing_deg, r.group) for r in reefs]
+    survey_hi = hi + np.array([0.0, opt.shore_width])
+    boulders: list[Boulder] = []
+    debris: list[Box] = []
+    for n_items, is_boulder in ((opt.boulders, True), (opt.debris, False)):
+        for _ in range(n_items):
+            for _ in range(500):
+                p = rng.uniform(lo, hi)
+                if np.min(np.hypot(*(xy - p).T)) > 4.5:
+                    break
+            z = float(seabed.elevation(p[0], p[1]))
+            if is_boulder:
+                r = rng.uniform(0.25, 0.5)
+                boulders.append(Boulder(p[0], p[1], z - 0.3 * r, r))
+            else:
+                debris.append(Box(p[0], p[1], z - 0.05, rng.uniform(0.5, 1.2),
+                                  rng.uniform(0.3, 0.6), rng.uniform(0.2, 0.5),
+                                  rng.uniform(0, 180)))
+    boulders += _rocks(opt.rocks, rng, seabed, lo, hi, xy, first=len(boulders) + 1)
+    lines = []
+    y0, y1 = lo[1] - 10, survey_hi[1] + 10
+    n_lines = int(math.ceil((y1 - y0) / opt.line_spacing)) + 1
+    for k in range(n_lines):
+        y = y0 + k * opt.line_spacing
+        xs = (lo[0] - 15, hi[0] + 15) if k % 2 == 0 else (hi[0] + 15, lo[0] - 15)
+        lines.append(Line(((xs[0], y), (xs[1], y)), ping_spacing=opt.ping_spacing))
+    scene = Scene(seabed, reefs=tuple(reefs), boulders=tuple(boulders), debris=tuple(debris),
+                  origin=(opt.origin_x, opt.origin_y))
+    return scene, Survey(tuple(lines), sonar), {}
+
+
+def _rocks(n: int, rng: np.random.Generator, seabed: Seabed, lo: np.ndarray, hi: np.ndarray,
+           reefs_xy: np.ndarray, first: int) -> list[Boulder]:
+    """``n`` rounded rocks of reef size, each an ellipsoid sunk so that 0.4-1.5 m shows, a
+    third of them with a second, smaller lobe (numbered ``first``, ``first + 1``, ...)."""
+    if n == 0:
+        return []
+    rng = np.random.default_rng(rng.integers(2**63))  # its own stream: other scenes stay as they were
+    out: list[Boulder] = []
+    for k in range(n):
+        for _ in range(500):
+            p = rng.uniform(lo, hi)
+            if np.min(np.hypot(*(reefs_xy - p).T)) > 4.5 and all(
+                    math.hypot(b.x - p[0], b.y - p[1]) > 4.0 for b in out):
+                break
+        a = rng.uniform(0.6, 1.3)
+        proud = rng.uniform(0.4, 1.5)
+        rz = proud / rng.uniform(0.6, 0.9)
+        bearing = rng.uniform(0, 180)
+        z = float(seabed.elevation(p[0], p[1])) + proud - rz
+        out.append(Boulder(p[0], p[1], z, a, ry=a * rng.uniform(0.6, 1.0), rz=rz, bearing_deg=bearing,
+                           rock=first + k))
+        if rng.random() < 1 / 3:
+            u = bearing_to_vector(bearing) * a * rng.uniform(0.7, 1.0)
+            s = rng.uniform(0.6, 0.8)
+            out.append(Boulder(p[0] + u[0], p[1] + u[1], z - rz * (1 - s) * 0.5, a * s, ry=a * s * 0.8,
+                               rz=rz * s, bearing_deg=bearing + rng.uniform(-40, 40), rock=first + k))
+    return out
