@@ -364,20 +364,20 @@ def test_a_candidate_lower_than_min_height_is_a_bump_not_a_reef(reef_small):
     last false reef of three seeds each (study_reefs.py)."""
     from dataclasses import replace
 
-    from mbinspect.reefs.run import _not_a_reef
+    from mbinspect.reefs.reject import Candidate, Context, why_not_a_reef
 
     reef = extract_reefs(reef_small.cloud, seed=0).reefs[0]
     assert reef.height > 1.0
-    cells = np.zeros(0, dtype=np.int64)
-    assert _not_a_reef(reef, cells, None, None, None, ReefOptions()) is None
-    why = _not_a_reef(replace(reef, height=0.22), cells, None, None, None, ReefOptions())
+    cells, context = np.zeros(0, dtype=np.int64), Context(reef_small.cloud.xyz)
+    assert why_not_a_reef(Candidate(reef, cells), context, ReefOptions()) is None
+    why = why_not_a_reef(Candidate(replace(reef, height=0.22), cells), context, ReefOptions())
     assert why is not None and why.startswith("0.22 m above the seabed around it (`min_height` 0.3 m)")
     lower = ReefOptions(min_height=0.2, foot_height=0.1)
-    assert _not_a_reef(replace(reef, height=0.22), cells, None, None, None, lower) is None
+    assert why_not_a_reef(Candidate(replace(reef, height=0.22), cells), context, lower) is None
 
 
 def test_a_dome_is_rounded_and_a_flat_top_is_not():
-    from mbinspect.reefs.run import dome_shape, rounded_shape
+    from mbinspect.reefs.shape import dome_shape, rounded_shape
 
     rng = np.random.default_rng(2)
     r = np.sqrt(rng.uniform(0, 1, 3000))

@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from .designs import BUILTIN_DESIGNS
 from .errors import InputError
 from .noise import seabed_residuals
+from .reef_designs import BUILTIN_DESIGNS
 from .simulate import LABELS, Pile, Reef, Scene, Seabed, hit_objects, reef_boxes, reef_truth, truth_spacings
 
 __all__ = ["InjectedPile", "InjectedReef", "Injection", "estimate_pings", "inject", "ping_origins",

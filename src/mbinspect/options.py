@@ -49,6 +49,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "reef_method": ("local", "paper"),
     "seabed": ("auto", "plane", "grid"),
     "pile_groups": ("auto", "none"),
+    "beam_spacing": ("equidistant", "equiangular"),
 }
 
 Check = Callable[[str, Any], Any]

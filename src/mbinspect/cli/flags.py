@@ -49,7 +49,7 @@ def _annotated(f: dataclasses.Field[Any]) -> type:
 
 
 def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: type[Options], *,
-              skip: tuple[str, ...] = ()) -> None:
+              skip: tuple[str, ...] = (), default_text: str | None = None) -> None:
     """Add one flag per command-line option of ``cls`` to ``group``.
 
     Every flag's destination is ``opt_<name>`` with default None, so that only the
@@ -63,6 +63,9 @@ def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: typ
         An options class.
     skip : tuple of str
         Options not to offer.
+    default_text : str, optional
+        What the help says of every default, where another option sets them (the sonar's
+        fields by ``--sonar``); each option's own default otherwise.
     """
     for f, spec in cls.specs():
         if not spec.cli or f.name in skip:
@@ -71,7 +74,8 @@ def add_flags(group: argparse._ArgumentGroup | argparse.ArgumentParser, cls: typ
         kind = spec.kind or (type(default) if default is not None else _annotated(f))
         unit = f" ({spec.unit})" if spec.unit else ""
         shown = "required" if f.default is MISSING else ("none" if default is None else default)
-        text = f"{spec.help}{unit}; " + ("required" if f.default is MISSING else f"default {shown}")
+        text = f"{spec.help}{unit}; " + (default_text or ("required" if f.default is MISSING
+                                                          else f"default {shown}"))
         flag = flag_text(f, spec)
         dest = f"opt_{f.name}"
         if kind is bool:

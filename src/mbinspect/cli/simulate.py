@@ -10,38 +10,30 @@ from typing import Any
 
 from ..errors import ParameterError
 from .common import Reporter, subcommand
-from .flags import typed_parser
+from .flags import add_flags, typed_parser
 
 
 def _add_simulate_options(p: argparse.ArgumentParser) -> None:
-    from ..simulate import PRESETS, option_fields
-    from .flags import typed_parser
+    """One flag per preset and sonar option, generated from their options classes; an option
+    two presets share is offered once, under the first."""
+    from ..simulate import PRESETS, Sonar, SonarChoice
 
-    seen: set[str] = set()
-    for preset in PRESETS:
+    seen: tuple[str, ...] = ()
+    for preset, cls in PRESETS.items():
         g = p.add_argument_group(f"{preset} options (defaults in 'mbinspect simulate "
                                  f"{preset} --show-options')")
-        for f in option_fields(preset):
-            if f.name in seen:
-                continue
-            seen.add(f.name)
-            flag = "--" + f.name.replace("_", "-")
-            kind = type(f.default)
-            if kind is bool:
-                g.add_argument(flag, dest=f"opt_{f.name}", type=_parse_bool, metavar="BOOL")
-            elif kind is str:
-                g.add_argument(flag, dest=f"opt_{f.name}", metavar="TEXT")
-            else:
-                g.add_argument(flag, dest=f"opt_{f.name}", type=typed_parser(kind, f.name),
-                               metavar=kind.__name__.upper())
+        add_flags(g, cls, skip=seen)
+        seen += tuple(f.name for f, _ in cls.specs())
+    g = p.add_argument_group("sonar options (defaults by --sonar, in --show-options)")
+    add_flags(g, SonarChoice)
+    add_flags(g, Sonar, default_text="default set by --sonar")
 
 
-def _parse_bool(text: str) -> bool:
-    if text.lower() in ("1", "true", "yes", "on"):
-        return True
-    if text.lower() in ("0", "false", "no", "off"):
-        return False
-    raise argparse.ArgumentTypeError(f"{text!r} is not true or false")
+def _writable() -> dict[str, str]:
+    """Format name -> the extension of its soundings file, for every format mbinspect writes."""
+    from ..formats import FORMATS
+
+    return {ext[1:]: ext for row in FORMATS.values() for ext in row.written_extensions}
 
 
 def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
@@ -61,7 +53,7 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
             print(f"--{f.name.replace('_', '-'):24s} {values[f.name]}")
         return 0
     out = Path(args.out) if args.out else Path(f"sim-{args.preset}-{args.seed}")
-    ext = {"xyz": ".xyz", "las": ".las", "laz": ".laz", "ply": ".ply", "npz": ".npz"}[args.format]
+    ext = _writable()[args.format]
     if args.per_line:
         return _simulate_lines(args, given, out, ext, rep, argv)
     with output_dir(out, overwrite=args.overwrite) as tmp:
@@ -111,7 +103,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("preset", choices=["jacket", "wharf", "reef-field"])
     p.add_argument("--seed", type=typed_parser(int, "seed"), default=0, help="random seed (default 0)")
     p.add_argument("--out", metavar="DIR", help="output folder (default sim-PRESET-SEED)")
-    p.add_argument("--format", choices=["xyz", "las", "laz", "ply", "npz"], default="xyz",
+    p.add_argument("--format", choices=list(_writable()), default="xyz",
                    help="format of the soundings file (default xyz)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
     p.add_argument("--force", action="store_true",

@@ -61,6 +61,9 @@ class Format:
         ``chunks(path, n) -> iterator of PointCloud``: the file read ``n`` soundings at a time.
     fields : str
         The per-point fields kept, for the documentation.
+    writes : tuple of str
+        The extensions its writer makes distinct files of (``.las`` and compressed
+        ``.laz``); the first extension when not given.
     """
 
     name: str
@@ -74,3 +77,11 @@ class Format:
     count: Callable[[Path], int] | None = None
     chunks: Callable[[Path, int], Iterator[PointCloud]] | None = None
     fields: str = ""
+    writes: tuple[str, ...] = ()
+
+    @property
+    def written_extensions(self) -> tuple[str, ...]:
+        """What :attr:`writes` names, or the first extension; none for a format read only."""
+        if self.write is None:
+            return ()
+        return self.writes or self.extensions[:1]

@@ -130,6 +130,7 @@ def _count(path: Path) -> int:
 
 
 FORMAT = Format("las", (".las", ".laz"), _read, _write_las, 30.0, aliases=("laz",), count=_count,
+                writes=(".las", ".laz"),
                 chunks=iter_las,
                 fields="intensity, classification, line (point source id), beam_angle (scan angle), "
                        "any extra bytes")

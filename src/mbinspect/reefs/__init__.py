@@ -41,8 +41,9 @@ from .measure import measure_reef, outline, own_soundings, ring_seabed, sounding
 from .options import REEF_METHODS, ReefOptions
 from .paper import paper_clusters
 from .results import Reef, ReefResult
-from .run import extract_reefs, single_reefs
+from .run import extract_reefs
 from .score import score_reefs
+from .single import single_reefs
 from .split import diameter, local_reef_area, merge_fragments, row_ends, split_large, split_reefs
 from .terrain import Ground, TerrainMask, rough_terrain, screen_terrain
 

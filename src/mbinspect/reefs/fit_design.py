@@ -11,10 +11,11 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..designs import DesignFit, ReefDesign, fit_design, scale_at_bound
 from ..geometry import min_area_rectangle
+from ..reef_designs import ReefDesign
 from .footprint import Raster
 from .measure import own_soundings, soundings_around
+from .pose import DesignFit, fit_design, scale_at_bound
 from .results import Reef
 
 __all__ = ["fit_reef_design", "join_by_design", "share_by_design", "with_design"]
@@ -66,7 +67,7 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_re
     >>> from mbinspect.simulate import simulate
     >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
     ...                close_pairs=0, boulders=0, debris=0)
-    >>> from mbinspect.designs import parse_designs
+    >>> from mbinspect.reef_designs import parse_designs
     >>> from mbinspect.reefs import fit_seabed, reef_points, split_reefs
     >>> seabed, _ = fit_seabed(sim.cloud.xyz)
     >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)

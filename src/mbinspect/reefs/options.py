@@ -6,8 +6,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..checks import fail
-from ..designs import ReefDesign, parse_designs
 from ..options import CHOICES, Options, crop_value, option, parse_crop
+from ..reef_designs import ReefDesign, parse_designs
 
 __all__ = ["ReefOptions", "REEF_METHODS"]
 
@@ -24,7 +24,7 @@ class ReefOptions(Options):
     """Options of :func:`~mbinspect.reefs.extract_reefs`; each is checked on creation.
 
     ``design`` takes built-in design names or JSON design files, comma-separated, or
-    :class:`~mbinspect.designs.ReefDesign` objects, and holds the designs read. The table
+    :class:`~mbinspect.reef_designs.ReefDesign` objects, and holds the designs read. The table
     of every option is ``ReefOptions.describe()``; ``mbinspect reefs --help`` lists the
     same under their flags.
 

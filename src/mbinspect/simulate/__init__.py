@@ -41,7 +41,7 @@ from .presets import PRESETS, JacketOptions, ReefFieldOptions, WharfOptions, def
 from .raycast import hit_objects
 from .run import Simulation, simulate, simulate_lines
 from .scene import LABELS, Boulder, Box, Pile, Reef, Scene, Seabed, reef_boxes
-from .sonar import DEFAULT_SONAR, SONARS, Line, Sonar, Survey, named_sonar
+from .sonar import DEFAULT_SONAR, SONARS, Line, Sonar, SonarChoice, Survey, named_sonar
 from .survey import survey
 from .truth import reef_reference_rows, reef_truth, truth_spacings
 
@@ -55,6 +55,7 @@ __all__ = [
     "Boulder",
     "Scene",
     "Sonar",
+    "SonarChoice",
     "Line",
     "Survey",
     "Simulation",

@@ -17,7 +17,6 @@ from ..errors import ParameterError
 from ..io import PointCloud, write
 from .builders import build_jacket, build_reef_field, build_wharf
 from .presets import (
-    check_options,
     options_class,
 )
 from .scene import LABELS, Scene
@@ -136,7 +135,6 @@ def _setup(preset: str, seed: int, overrides: dict[str, Any]) -> _Setup:
         )
     opt = opt_cls(**{k: v for k, v in overrides.items() if k in opt_fields})
     sonar = dataclasses.replace(sonar, **{k: v for k, v in overrides.items() if k in sonar_fields})
-    check_options(opt, sonar)
     scene_seed, noise_seed = np.random.SeedSequence(seed).spawn(2)
     builders: dict[str, Callable[..., tuple[Scene, Survey, dict[str, Any]]]] = {
         "jacket": build_jacket, "wharf": build_wharf, "reef-field": build_reef_field}

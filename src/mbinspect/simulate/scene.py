@@ -10,13 +10,13 @@ from typing import Any
 
 import numpy as np
 
-from ..designs import BUILTIN_DESIGNS
 from ..errors import ParameterError
 from ..geometry import (
     bearing_to_vector,
     polygon_distance,
     rectangle_corners,
 )
+from ..reef_designs import BUILTIN_DESIGNS
 
 #: Meaning of the per-sounding truth label.
 LABELS = {"seabed": 0, "pile": 1, "reef": 2, "boulder": 3, "debris": 4, "outlier": 5}
@@ -231,7 +231,7 @@ def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float,
                ) -> tuple[Box, ...]:
     """The boxes of one reef design placed at local (x, y) with its base at ``z_base``.
 
-    ``kind`` names one of :data:`mbinspect.designs.BUILTIN_DESIGNS` (``cross2``,
+    ``kind`` names one of :data:`mbinspect.reef_designs.BUILTIN_DESIGNS` (``cross2``,
     ``cross1``, ``hollow``, ``triangle``, ``cube``); ``scale`` is the as-built size relative to the
     design (every dimension).
 

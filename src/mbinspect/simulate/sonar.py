@@ -8,94 +8,84 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import fail, non_negative
 from ..errors import ParameterError
+from ..options import CHOICES, Options, option
+
+
+def _tail_dof(name: str, value: float) -> float:
+    """0 (normal noise) or more than 2 degrees of freedom."""
+    value = non_negative(name, value)
+    if 0 < value <= 2:
+        raise fail(name, value, "0 (normal noise) or more than 2 degrees of freedom")
+    return value
+
 
 
 @dataclass(frozen=True)
-class Sonar:
+class Sonar(Options):
     """Multibeam system and error model. All sigmas are 1-sigma; ``noise_scale`` scales them.
 
-    Parameters
-    ----------
-    swath_deg : float
-        Full swath opening angle, degrees (beams from -swath/2 to +swath/2).
-    n_beams : int
-        Beams per ping.
-    spacing : {"equidistant", "equiangular"}
-        Beam distribution across the swath.
-    draft : float
-        Transducer depth below the surface (m).
-    range_sigma, range_sigma_rel : float
-        Range noise: constant part (m) plus a fraction of the range.
-    angle_sigma_deg : float
-        Beam-pointing noise at nadir (deg), growing as 1/cos(beam angle).
-    position_sigma, vertical_sigma : float
-        Per-ping horizontal and vertical positioning noise (m): RTK, heave.
-    attitude_sigma_deg : float
-        Per-ping residual roll error (deg), common to every beam of the ping.
-    refraction_bias_deg : float
-        Systematic depression-angle error at the outermost beam (deg), growing as
-        (angle / max angle)^2 toward the outer beams (sound-speed error).
-    roll_amplitude_deg, pitch_amplitude_deg, heave_amplitude : float
-        Vessel motion (compensated) that steers the beams.
-    spike_rate, water_column_rate : float
-        Fractions of soundings that are multipath spikes (long ranges) and
-        water-column returns (short ranges).
-    noise_scale : float
-        Multiplies every noise sigma and outlier rate (1 = default).
-    tail_dof : float
-        Heavy tails: the range and pointing noise are Student-t with this many degrees of
-        freedom, scaled so that their robust σ (1.4826 × median absolute value) is the
-        sigma given; 0 (default) keeps them normal. Real shallow files show p99/σ of
-        3.7–5.6 (``benchmarks/real_noise.py``); with the simulator's per-ping errors, 2.5
-        gives 3.9 and 3 gives 3.5.
-    speckle_db : float
-        Backscatter speckle, 1σ (dB); real files show 1.3–12 dB within an angle bin.
-    range_angle_growth : float
-        Range noise grows off nadir by the factor 1 + growth·|sin θ| / sin 60°: the
-        bottom detection worsens as the footprint lengthens (0: no growth).
-    line_offset_sigma : float
-        Per-line vertical offset, 1σ (m): tide, draft and heave errors that make
-        overlapping strips disagree.
-    refraction_sigma_deg : float
-        Per-line random sound-speed error: a depression-angle bias at the outermost beam
-        (deg, 1σ), drawn for each line and shaped like ``refraction_bias_deg`` (the
-        across-swath "smile").
-    beam_bias_sigma : float
-        Per-line, per-beam range offset, 1σ (m): the stripes along track that a beam's
-        own detection bias leaves.
-    bs_line_sigma_db : float
-        Per-line backscatter gain offset, 1σ (dB): uncalibrated levels.
-    bs_angle_db : float
-        Uncalibrated angular response: the stored backscatter falls by this many dB
-        (× a per-line factor drawn in [0.5, 1.5]) from nadir to the outermost beam.
+    Every field is an option (:mod:`mbinspect.options`): its unit, default and check are
+    written once here and the command line offers each as a flag. ``tail_dof``: the range
+    and pointing noise are Student-t with this many degrees of freedom, scaled so that their
+    robust σ (1.4826 × median absolute value) is the sigma given; 0 keeps them normal. Real
+    shallow files show p99/σ of 3.7–5.6 (``benchmarks/real_noise.py``); with the simulator's
+    per-ping errors, 2.5 gives 3.9 and 3 gives 3.5. ``range_angle_growth``: the range noise
+    grows off nadir by the factor 1 + growth·|sin θ| / sin 60° (the bottom detection worsens
+    as the footprint lengthens). ``refraction_bias_deg`` and ``refraction_sigma_deg`` grow
+    as (angle / max angle)² toward the outer beams (the across-swath "smile").
     """
 
-    swath_deg: float = 120.0
-    n_beams: int = 256
-    spacing: str = "equidistant"
-    draft: float = 0.5
-    range_sigma: float = 0.01
-    range_sigma_rel: float = 0.0005
-    angle_sigma_deg: float = 0.03
-    position_sigma: float = 0.015
-    vertical_sigma: float = 0.02
-    attitude_sigma_deg: float = 0.01
-    refraction_bias_deg: float = 0.0
-    roll_amplitude_deg: float = 2.0
-    pitch_amplitude_deg: float = 1.0
-    heave_amplitude: float = 0.2
-    spike_rate: float = 0.001
-    water_column_rate: float = 0.0005
-    noise_scale: float = 1.0
-    tail_dof: float = 0.0
-    speckle_db: float = 2.5
-    range_angle_growth: float = 0.0
-    line_offset_sigma: float = 0.0
-    refraction_sigma_deg: float = 0.0
-    beam_bias_sigma: float = 0.0
-    bs_line_sigma_db: float = 0.0
-    bs_angle_db: float = 0.0
+    swath_deg: float = option(120.0, unit="deg", check="positive",
+                              help="full swath opening angle (beams from -swath/2 to +swath/2)")
+    n_beams: int = option(256, help="beams per ping", check="count")
+    spacing: str = option("equidistant", choices="beam_spacing", help="beam distribution across the swath")
+    draft: float = option(0.5, unit="m", help="transducer depth below the surface", check="non_negative")
+    range_sigma: float = option(0.01, unit="m", help="range noise, constant part", check="non_negative")
+    range_sigma_rel: float = option(0.0005, check="non_negative", help="range noise, share of the range")
+    angle_sigma_deg: float = option(0.03, unit="deg", check="non_negative",
+                                    help="beam-pointing noise at nadir, growing as 1/cos(beam angle)")
+    position_sigma: float = option(0.015, unit="m", check="non_negative",
+                                   help="per-ping horizontal positioning noise (RTK)")
+    vertical_sigma: float = option(0.02, unit="m", check="non_negative",
+                                   help="per-ping vertical positioning noise (heave)")
+    attitude_sigma_deg: float = option(0.01, unit="deg", check="non_negative",
+                                       help="per-ping residual roll error, common to every beam of the ping")
+    refraction_bias_deg: float = option(0.0, unit="deg", check="non_negative",
+                                        help="systematic depression-angle error at the outermost beam")
+    roll_amplitude_deg: float = option(2.0, unit="deg", check="non_negative",
+                                       help="vessel roll (compensated) that steers the beams")
+    pitch_amplitude_deg: float = option(1.0, unit="deg", check="non_negative",
+                                        help="vessel pitch (compensated) that steers the beams")
+    heave_amplitude: float = option(0.2, unit="m", help="vessel heave (compensated)", check="non_negative")
+    spike_rate: float = option(0.001, check="non_negative",
+                               help="share of soundings that are multipath spikes (long ranges)")
+    water_column_rate: float = option(0.0005, check="non_negative",
+                                      help="share of soundings that are water-column returns (short ranges)")
+    noise_scale: float = option(1.0, check="non_negative",
+                                help="multiplies every noise sigma and outlier rate (1: as given)")
+    tail_dof: float = option(0.0, check=_tail_dof,
+                             help="Student-t degrees of freedom of the range and pointing noise (0: normal)")
+    speckle_db: float = option(2.5, unit="dB", check="non_negative",
+                               help="backscatter speckle (real files: 1.3-12 dB within an angle bin)")
+    range_angle_growth: float = option(0.0, check="non_negative",
+                                       help="growth of the range noise off nadir (0: none)")
+    line_offset_sigma: float = option(0.0, unit="m", check="non_negative",
+                                      help="per-line vertical offset: tide, draft and heave errors")
+    refraction_sigma_deg: float = option(0.0, unit="deg", check="non_negative",
+                                         help="per-line sound-speed error at the outermost beam")
+    beam_bias_sigma: float = option(0.0, unit="m", check="non_negative",
+                                    help="per-line, per-beam range offset (stripes along track)")
+    bs_line_sigma_db: float = option(0.0, unit="dB", check="non_negative",
+                                     help="per-line backscatter gain offset (uncalibrated levels)")
+    bs_angle_db: float = option(0.0, unit="dB", check="non_negative",
+                                help="fall of the stored backscatter from nadir to the outermost beam")
+
+    def check_together(self) -> None:
+        """A swath under 170 degrees."""
+        if self.swath_deg >= 170:
+            raise fail("swath_deg", self.swath_deg, "a swath below 170 deg")
 
     def beam_angles(self) -> np.ndarray:
         """Nominal beam angles (radians, + to starboard), shape (n_beams,)."""
@@ -169,15 +159,18 @@ SONARS: dict[str, Sonar] = {
 }
 
 
+CHOICES["sonar"] = tuple(SONARS)
+
 #: The sonar a simulation uses unless told.
 DEFAULT_SONAR = "shallow"
 
 
 @dataclass(frozen=True)
-class SonarChoice:
+class SonarChoice(Options):
     """The one simulation option that is not a field of :class:`Sonar`."""
 
-    sonar: str = DEFAULT_SONAR  #: named sonar (SONARS) whose fields the sonar options override
+    sonar: str = option(DEFAULT_SONAR, choices="sonar",
+                        help="named sonar whose fields the sonar options override")
 
 
 def named_sonar(name: str) -> Sonar:

@@ -8,9 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from mbinspect.designs import BUILTIN_DESIGNS, DesignBox, ReefDesign, fit_design, parse_designs, read_design
 from mbinspect.errors import InputError, ParameterError
 from mbinspect.geometry import polygon_area
+from mbinspect.reef_designs import BUILTIN_DESIGNS, DesignBox, ReefDesign, parse_designs, read_design
+from mbinspect.reefs.pose import fit_design
 from mbinspect.simulate import Reef, Seabed, reef_boxes, reef_truth
 
 

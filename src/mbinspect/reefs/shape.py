@@ -1,0 +1,192 @@
+"""The shape of a reef candidate: how rounded, how much a dome, how thick, and each survey
+line's level around it (strips a few centimetres apart put a flat top at two heights).
+
+Measures only; :mod:`mbinspect.reefs.reject` turns them into reasons.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..seabed import GROUND_BAND
+from .footprint import Raster
+
+__all__ = ["rounded_shape", "dome_shape", "ground_by_x", "line_levels", "thickness", "cell_soundings",
+           "PLATEAU_DEPTH", "TOP_SHARE", "DOME_BASE", "DOME_PLATEAU", "LEVEL_MARGIN", "LEVEL_MIN"]
+
+
+#: Share of a candidate's height counted as its top (``rounded_plateau``), and the share of
+#: its soundings, highest first, whose spread is its top's (``rounded_spread``).
+PLATEAU_DEPTH = 0.15
+TOP_SHARE = 0.3
+
+
+def rounded_shape(height: np.ndarray) -> tuple[float, float]:
+    """How rounded a candidate is, from the heights of its surface (one per footprint cell,
+    or per sounding) above one level.
+
+    Returns
+    -------
+    spread : float
+        The 10th to 90th percentile of its highest :data:`TOP_SHARE` surface, as a share of
+        its top (the 95th percentile): a reef's flat top holds it to the noise, a rock's
+        dome spreads it.
+    plateau : float
+        The share of its surface within :data:`PLATEAU_DEPTH` of its top below it: most of a
+        reef's, little of a rock's.
+
+    Examples
+    --------
+    >>> r = np.sqrt(np.random.default_rng(0).uniform(0, 1, 2000))  # even over a disc
+    >>> [round(v, 2) for v in rounded_shape(np.sqrt(1 - r**2))]  # a dome
+    [0.14, 0.31]
+    >>> [round(v, 2) for v in rounded_shape(np.r_[np.full(900, 1.0), np.linspace(0.2, 1, 100)])]  # a box
+    [0.0, 0.92]
+    """
+    h = np.asarray(height, np.float64)
+    if len(h) < 10:
+        return math.nan, math.nan
+    top = float(np.percentile(h, 95))
+    high = h[h >= np.percentile(h, 100 * (1 - TOP_SHARE))]
+    spread = float(np.percentile(high, 90) - np.percentile(high, 10)) / top
+    return spread, float(np.mean(h >= (1 - PLATEAU_DEPTH) * top))
+
+
+#: Share of a candidate's height above which its soundings are its upper part (:func:`dome_shape`),
+#: and the most of its surface a dome holds near its top (``plateau`` of :func:`rounded_shape`;
+#: rocks of the rocky field 0.14-0.52): a box's flat top holds most of it (solid 2 m cubes,
+#: 0.80-0.97), though its rim falls like a dome's.
+DOME_BASE = 0.3
+DOME_PLATEAU = 0.6
+
+
+def dome_shape(xy: np.ndarray, z: np.ndarray, across: float) -> tuple[float, float]:
+    """How much a candidate is a dome: a quadratic surface fitted to its upper soundings
+    (above :data:`DOME_BASE` of its top, the 95th percentile of ``z``).
+
+    Parameters
+    ----------
+    xy : ndarray, shape (N, 2)
+        Plan positions (m).
+    z : ndarray, shape (N,)
+        Heights (m) above the seabed.
+    across : float
+        The width (m) of its thickest part (:func:`thickness`).
+
+    Returns
+    -------
+    misfit : float
+        The fit's RMS residual as a share of its top: a rock's dome is within the noise of
+        one, a stepped or hollow reef is not.
+    drop : float
+        How far the surface falls across half of ``across`` along its most curved direction,
+        as a share of its top: most of a dome's height, nothing for a flat top. NaN both
+        with fewer than 10 upper soundings.
+
+    Examples
+    --------
+    >>> g = np.stack(np.meshgrid(np.linspace(-1, 1, 21), np.linspace(-1, 1, 21)), -1).reshape(-1, 2)
+    >>> disc = g[np.hypot(*g.T) < 1]
+    >>> dome = np.sqrt(1 - np.sum(disc**2, axis=1))
+    >>> [round(v, 2) for v in dome_shape(disc, dome, 2.0)]
+    [0.03, 0.75]
+    >>> [abs(round(v, 2)) for v in dome_shape(disc, np.ones(len(disc)), 2.0)]  # a flat top
+    [0.0, 0.0]
+    """
+    top = float(np.percentile(z, 95))
+    up = z >= DOME_BASE * top
+    if up.sum() < 10 or top <= 0:
+        return math.nan, math.nan
+    p = xy[up] - xy[up].mean(axis=0)
+    design = np.column_stack([np.ones(len(p)), p, p**2, p[:, 0] * p[:, 1]])
+    coef, *_ = np.linalg.lstsq(design, z[up], rcond=None)
+    misfit = float(np.sqrt(np.mean((z[up] - design @ coef) ** 2))) / top
+    hessian = np.array([[2 * coef[3], coef[5]], [coef[5], 2 * coef[4]]])
+    curvature = -float(np.linalg.eigvalsh(hessian).min())  # the most downward, 1/m
+    return misfit, curvature / 2 * (across / 2) ** 2 / top
+
+
+#: Margin (m) around a candidate whose seabed soundings give each line's level, and the
+#: least of them a line needs there for its level to be taken (else none is removed).
+LEVEL_MARGIN = 2.0
+LEVEL_MIN = 10
+
+
+def ground_by_x(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, line: np.ndarray
+                 ) -> tuple[np.ndarray, ...]:
+    """The seabed soundings (not reef points, within the ground band), sorted by x: their
+    x, y, line and height above the seabed."""
+    rows = np.flatnonzero(~is_reef & (np.abs(height) <= GROUND_BAND))
+    rows = rows[np.argsort(points[rows, 0], kind="stable")]
+    return points[rows, 0], points[rows, 1], line[rows], height[rows]
+
+
+def line_levels(xy: np.ndarray, line: np.ndarray, ground: tuple[np.ndarray, ...],
+                margin: float = LEVEL_MARGIN) -> np.ndarray:
+    """Each sounding's line's level: the median height above the seabed of that line's
+    seabed soundings within ``margin`` (m) of the soundings' extent (``ground`` as
+    :func:`ground_by_x` gives). Strips that disagree by a few centimetres put a reef's
+    flat top at two heights, which spread like a dome's; a line with fewer than
+    :data:`LEVEL_MIN` seabed soundings there keeps its height.
+
+    Examples
+    --------
+    >>> gx = np.repeat(np.arange(10.0), 4)
+    >>> ground = (gx, np.zeros(40), np.tile([1, 1, 2, 2], 10), np.tile([0.05, 0.05, -0.05, -0.05], 10))
+    >>> line_levels(np.array([[4.0, 0.5], [5.0, 0.5]]), np.array([1, 2]), ground).tolist()
+    [0.05, -0.05]
+    """
+    gx, gy, gline, gh = ground
+    (x0, y0), (x1, y1) = xy[:, :2].min(axis=0) - margin, xy[:, :2].max(axis=0) + margin
+    a, b = np.searchsorted(gx, [x0, x1], side="left")
+    near = slice(a, b)
+    inside = (gy[near] >= y0) & (gy[near] <= y1)
+    lines, h = gline[near][inside], gh[near][inside]
+    level = np.zeros(len(line))
+    for k in np.unique(line):
+        own = h[lines == k]
+        if len(own) >= LEVEL_MIN:
+            level[line == k] = np.median(own)
+    return level
+
+
+def thickness(cells: np.ndarray, raster: Raster) -> float:
+    """The width (m) of a footprint's thickest part: the diameter of the largest disc its
+    cells hold: about 1.4 arm widths at a cross's crossing, not its span; a rock's own width.
+
+    Examples
+    --------
+    >>> from mbinspect.reefs.footprint import Raster
+    >>> lab = np.zeros((40, 40), int)
+    >>> lab[15:25, :] = lab[:, 15:25] = 1  # a cross of 0.1 m cells, arms 1 m wide, 4 m long
+    >>> r = Raster(0.0, 0.0, 0.1, lab, np.full(lab.shape, -1))
+    >>> round(thickness(np.flatnonzero(lab.ravel() == 1), r), 1)
+    1.4
+    """
+    from scipy.ndimage import distance_transform_edt
+
+    ny, nx = raster.labels.shape
+    iy, ix = np.divmod(np.asarray(cells, np.int64), nx)
+    mask = np.zeros((iy.max() - iy.min() + 3, ix.max() - ix.min() + 3), bool)
+    mask[iy - iy.min() + 1, ix - ix.min() + 1] = True
+    return float(2.0 * distance_transform_edt(mask).max() * raster.cell)
+
+
+def cell_soundings(cells: np.ndarray, raster: Raster) -> np.ndarray:
+    """The nearest sounding of each of a footprint's cells that has one (rows of the raster's
+    soundings).
+
+    Parameters
+    ----------
+    cells : ndarray of int
+        Flat raster cells of a footprint.
+    raster : Raster
+
+    Returns
+    -------
+    ndarray of int
+    """
+    idx = raster.nearest.ravel()[cells]
+    return idx[idx >= 0]

@@ -1,0 +1,176 @@
+"""Stage 6 of the reefs: the single reefs among the reef points, each measured, fitted by its
+design and judged (:mod:`mbinspect.reefs.reject`); groups of reef points far apart measured
+apart (:func:`reef_islands`), so that time and memory follow the reef points."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..grid import cell_groups, cell_index
+from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
+from .footprint import Raster
+from .ground import Seabed
+from .measure import measure_reef
+from .options import ReefOptions
+from .reject import Candidate, Context, other_object, why_not_a_reef
+from .results import OtherObject, Reef
+from .shape import ground_by_x
+from .split import split_reefs
+
+__all__ = ["reef_islands", "single_reefs", "ISLAND_GAP", "ISLAND_CELL"]
+
+
+#: Reef points farther apart than this (m) are measured apart, each group on the soundings
+#: around it: no stage links soundings that far (the single-reef area looks
+#: :data:`~mbinspect.reefs.split.AREA_RADIUS` m around, the footprint spacing and the
+#: statistical filter 10 m), and a raster then spans each group, not
+#: the survey (strips kilometres apart made one raster of their whole extent).
+ISLAND_GAP = 50.0
+#: Side (m) of the plan cells the groups are found in; a group's soundings are those in its
+#: reef points' cells and the cells around them.
+ISLAND_CELL = 10.0
+
+
+def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
+                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
+                 ) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
+    """:func:`single_reefs` on each group of reef points at least :data:`ISLAND_GAP` m from
+    the others, so that time and memory follow the reef points, not their extent.
+
+    Takes and returns what :func:`single_reefs` does; the single-reef area is the median of
+    the groups'. One group: :func:`single_reefs` itself.
+    """
+    rows = np.flatnonzero(is_reef)
+    ci, cj = cell_index(points[rows], 0.0, 0.0, ISLAND_CELL)
+    cells, inverse = np.unique(np.column_stack([ci, cj]), axis=0, return_inverse=True)
+    n, group = cell_groups(cells, int(math.ceil(ISLAND_GAP / ISLAND_CELL)) + 1)
+    if n <= 1:
+        return single_reefs(points, is_reef, seabed, height, options, ping=ping, line=line)
+    # each sounding's cell, as one sortable key, and the soundings of a group's cells and
+    # the cells around them (more than the raster's pad around any reef point)
+    ai, aj = cell_index(points, 0.0, 0.0, ISLAND_CELL)
+    lo_i, lo_j = int(ai.min()) - 1, int(aj.min()) - 1
+    width = int(ai.max()) - lo_i + 2
+    key = (aj - lo_j).astype(np.int64) * width + (ai - lo_i)
+    order = np.argsort(key, kind="stable")
+    skey = key[order]
+    reefs: list[Reef] = []
+    others: list[OtherObject] = []
+    areas: list[float] = []
+    members: list[np.ndarray] = []
+    group_of_row = group[inverse.ravel()]
+    for g in range(n):
+        own = cells[group == g]
+        near = np.unique(np.concatenate([(own[:, 1:] + dj - lo_j) * width + (own[:, :1] + di - lo_i)
+                                         for di in (-1, 0, 1) for dj in (-1, 0, 1)]).ravel())
+        a, b = np.searchsorted(skey, near), np.searchsorted(skey, near, side="right")
+        sub = np.sort(np.concatenate([order[x:y] for x, y in zip(a, b, strict=True)]))
+        flag = np.zeros(len(sub), dtype=bool)
+        flag[np.searchsorted(sub, rows[group_of_row == g])] = True
+        r, o, area, m = single_reefs(points[sub], flag, seabed, height[sub], options,
+                                     ping=None if ping is None else ping[sub],
+                                     line=None if line is None else line[sub])
+        reefs += r
+        others += o
+        areas.append(area)
+        members += [sub[x] for x in m]
+    return reefs, others, float(np.nanmedian(areas)) if np.isfinite(areas).any() else math.nan, members
+
+
+def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
+                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
+                 ) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
+    """The single reefs among the reef points, each measured (our method).
+
+    Footprints split into single reefs (:func:`split_reefs`), each measured
+    (:func:`measure_reef`); given designs, each fitted by its design
+    (:func:`fit_reef_design`), parts one design explains joined (:func:`join_by_design`)
+    and touching reefs' soundings shared (:func:`share_by_design`).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    is_reef : ndarray of bool, shape (N,)
+    seabed : Seabed
+    height : ndarray, shape (N,)
+        Heights above ``seabed`` (m).
+    options : ReefOptions
+    ping : ndarray of int, shape (N,), optional
+        Each sounding's ping: a reef seen by fewer than ``options.min_pings`` pings is
+        listed among the others with the reason.
+    line : ndarray of int, shape (N,), optional
+        Each sounding's line: its height offset from the others
+        (:func:`~mbinspect.reefs.shape.line_levels`) is removed before a candidate's shape
+        is judged.
+
+    Examples
+    --------
+    >>> from mbinspect.simulate import simulate
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    ...                close_pairs=0, boulders=0, debris=0)
+    >>> from mbinspect.reefs import ReefOptions, fit_seabed, reef_points
+    >>> seabed, _ = fit_seabed(sim.cloud.xyz)
+    >>> is_reef, height = reef_points(sim.cloud.xyz, seabed)
+    >>> reefs, others, area, members = single_reefs(sim.cloud.xyz, is_reef, seabed, height, ReefOptions())
+    >>> len(reefs)
+    4
+
+    Returns
+    -------
+    reefs : list of Reef
+        Unnumbered (id 0).
+    others : list of OtherObject
+        Objects smaller than ``min_area``: position, height, area, top, points.
+    reef_area : float
+        The single-reef area used (m²).
+    members : list of ndarray of int
+        Each reef's soundings: the reef points (rows of ``points``) in its footprint.
+    """
+    parts, small, raster, used_area = split_reefs(points, is_reef, cell=options.cell,
+                                                  reef_area=options.reef_area, height=height,
+                                                  min_area=options.min_area, seed=options.seed)
+    reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef) for p in parts]
+    designs = options.designs
+    if designs:
+        fits = [fit_reef_design(points, p, raster, is_reef, height, designs, reef_height=r.height)
+                for r, p in zip(reefs, parts, strict=True)]
+        measured = {id(p): r for p, r in zip(parts, reefs, strict=True)}
+        parts, fits, heights = join_by_design(points, parts, raster, is_reef, height, designs, fits,
+                                              [r.height for r in reefs])
+        # only the joined parts are new arrays: measure those again
+        reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef)
+                 for p in parts]
+        fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights)
+        reefs = [with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
+    others = [other_object(measure_reef(points, p, raster, seabed, is_reef=is_reef),
+                           f"smaller than `min_area` {options.min_area:g} m²") for p in small]
+    context = Context(points, is_reef, raster, ping, line,
+                      ground_by_x(points, is_reef, height, line) if line is not None else None)
+    kept, kept_members = [], []
+    for r, p, m in zip(reefs, parts, _members(points, is_reef, raster, parts), strict=True):
+        why = why_not_a_reef(Candidate(r, p), context, options)
+        if why:
+            others.append(other_object(r, why))
+        else:
+            kept.append(r)
+            kept_members.append(m)
+    return kept, others, used_area, kept_members
+
+
+def _members(points: np.ndarray, is_reef: np.ndarray, raster: Raster, parts: list[np.ndarray]
+             ) -> list[np.ndarray]:
+    """The reef points inside each footprint (flat raster cells), as rows of ``points``."""
+    ny, nx = raster.labels.shape
+    owner = np.full(ny * nx, -1, np.int64)
+    for k, p in enumerate(parts):
+        owner[p] = k
+    rows = np.flatnonzero(is_reef)
+    i, j = cell_index(points[rows], raster.x0, raster.y0, raster.cell)
+    inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+    who = np.full(len(rows), -1, np.int64)
+    who[inside] = owner[j[inside] * nx + i[inside]]
+    order = np.argsort(who, kind="stable")
+    bounds = np.searchsorted(who[order], np.arange(len(parts) + 1))
+    return [rows[order[bounds[k]:bounds[k + 1]]] for k in range(len(parts))]
