@@ -86,8 +86,8 @@ def test_a_line_across_a_wide_empty_extent_runs_in_tiles_that_follow_it(tmp_path
     before any grid is made and cuts the line into tiles that follow it; each copy gets
     the answer the copy alone gets. Thirty such patches are the survey, not thirty
     navigation jumps (the stray rule once kept only the largest)."""
-    from mbinspect.grid import stray_cells
     from mbinspect.io import write
+    from mbinspect.strays import stray_cells
     from mbinspect.survey.run import SurveyOptions, run_survey
 
     cloud = read(DATA / "pdal_mbf_em300raw.mb56")

@@ -147,5 +147,5 @@ def test_bad_options_are_named():
         simulate("pier")
     with pytest.raises(ParameterError, match="lines: 'up'"):
         simulate("jacket", lines="up")
-    with pytest.raises(ParameterError, match="radius: 0.0; expected a positive number"):
+    with pytest.raises(ParameterError, match="radius: 0.0; expected a positive finite number"):
         simulate("jacket", radius=0.0)

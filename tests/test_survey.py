@@ -21,8 +21,9 @@ from mbinspect.piles import PileOptions
 from mbinspect.reefs import ReefOptions
 from mbinspect.simulate import simulate_lines
 from mbinspect.survey import expand_inputs, read_survey
+from mbinspect.survey.bins import bin_file, block_counts
 from mbinspect.survey.run import SurveyOptions, run_survey, run_tile
-from mbinspect.survey.tiles import TilePlan, bin_file, block_counts, choose_plan, load_tile, tile_slices
+from mbinspect.survey.tiles import TilePlan, choose_plan, load_tile, tile_slices
 
 # four groups of nine reefs; tiles of 126 m or more (over twice the 62 m buffer): four
 # tiles, reefs on their borders

@@ -20,7 +20,7 @@ import numpy as np
 from .checks import check_points
 from .errors import DataError, NotEnoughPointsError, ParameterError
 from .geometry import crop_mask
-from .grid import stray_soundings
+from .strays import stray_soundings
 
 __all__ = ["PointCloud", "crs_name", "pipeline_input", "sources", "ping_ranges"]
 
@@ -117,7 +117,7 @@ class PointCloud:
 def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: int = 10
                    ) -> tuple[PointCloud, np.ndarray, list[str]]:
     """A pipeline's input as a cloud and its checked ``(N, 3)`` points, cropped, without
-    stray soundings far from the rest (:func:`mbinspect.grid.stray_soundings`: a navigation
+    stray soundings far from the rest (:func:`mbinspect.strays.stray_soundings`: a navigation
     jump would otherwise make every grid as large as the distance jumped).
 
     Parameters

@@ -12,8 +12,8 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
-           "coverage", "sounding_spacing", "stray_soundings", "stray_cells", "cell_groups", "STRAY_SHARE",
-           "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells", "cell_key"]
+           "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",
+           "cell_key", "machine_memory"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -231,67 +231,6 @@ def extent_bytes(points: np.ndarray, cell: float) -> float:
     return float(span[0] * span[1] * BYTES_PER_CELL)
 
 
-#: Share of the soundings a spatially separate group may hold and still be set aside as
-#: stray, and its most against the largest group (thirty patches of a survey, each 3 % of
-#: its soundings, are its data, not thirty navigation jumps).
-STRAY_SHARE = 0.05
-STRAY_OF_LARGEST = 0.1
-
-
-def stray_soundings(points: np.ndarray, *, cell: float = 25.0, gap_cells: int = 4,
-                    share: float = STRAY_SHARE) -> np.ndarray:
-    """Soundings far from the rest of the survey: a navigation jump, a stray ping.
-
-    The soundings are binned into ``cell`` m plan cells (only the occupied ones are kept,
-    so memory follows the soundings, not their extent); occupied cells within
-    ``gap_cells`` cells of each other form one group. Groups holding under ``share`` of
-    the soundings and under :data:`STRAY_OF_LARGEST` of the largest group are stray.
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 2 or 3)
-    cell : float
-        Cell size (m).
-    gap_cells : int
-        Groups closer than this many cells are one.
-    share : float
-        Largest share of the soundings a stray group may hold.
-
-    Returns
-    -------
-    ndarray of bool, shape (N,)
-        True for stray soundings.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> survey = rng.uniform(0, 100, (2000, 2))
-    >>> jump = survey[:5] + 5000.0                    # one ping's soundings 5 km away
-    >>> stray_soundings(np.vstack([survey, jump])).nonzero()[0].tolist()
-    [2000, 2001, 2002, 2003, 2004]
-    """
-    xy = np.asarray(points, np.float64)[:, :2]
-    if len(xy) == 0:
-        return np.zeros(0, dtype=bool)
-    # cells counted from (0, 0), not from the soundings' corner: a tile of a survey sees the
-    # same cells as the whole survey; a chunk at a time, so that 10 M soundings cost no more
-    # than their own arrays (one pass over all of them took 0.5 GB)
-    spans = range(0, len(xy), STRAY_CHUNK)
-    parts = [np.unique(cell_key(xy[s:s + STRAY_CHUNK], cell), return_counts=True) for s in spans]
-    keys, inverse = np.unique(np.concatenate([k for k, _ in parts]), return_inverse=True)
-    counts = np.bincount(inverse.ravel(), weights=np.concatenate([c for _, c in parts])).astype(np.int64)
-    bad = keys[stray_cells(unpack_cells(keys), counts, gap_cells=gap_cells, share=share)]
-    out = np.zeros(len(xy), dtype=bool)
-    if len(bad):
-        for s in spans:
-            out[s:s + STRAY_CHUNK] = np.isin(cell_key(xy[s:s + STRAY_CHUNK], cell), bad)
-    return out
-
-
-#: Soundings :func:`stray_soundings` bins at a time.
-STRAY_CHUNK = 1_000_000
-
-
 def pack_cells(i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """Two cell indices as one int64 (each within ±2³⁰), ordered by ``i`` then ``j``.
 
@@ -312,60 +251,6 @@ def unpack_cells(key: np.ndarray) -> np.ndarray:
 def cell_key(xy: np.ndarray, cell: float) -> np.ndarray:
     """Each point's plan cell (from (0, 0)) as one :func:`pack_cells` key."""
     return pack_cells(np.floor(xy[:, 0] / cell), np.floor(xy[:, 1] / cell))
-
-
-def stray_cells(cells: np.ndarray, counts: np.ndarray, *, gap_cells: int = 4,
-                share: float = STRAY_SHARE) -> np.ndarray:
-    """Which occupied cells hold stray soundings (see :func:`stray_soundings`).
-
-    Parameters
-    ----------
-    cells : ndarray of int, shape (M, 2)
-        The occupied cells (column, row), each once.
-    counts : ndarray of int, shape (M,)
-        Soundings in each.
-    gap_cells, share
-        As :func:`stray_soundings`.
-
-    Returns
-    -------
-    ndarray of bool, shape (M,)
-
-    Examples
-    --------
-    >>> stray_cells(np.array([[0, 0], [1, 0], [200, 0]]), np.array([500, 500, 3])).tolist()
-    [False, False, True]
-    """
-    if len(cells) <= 1:
-        return np.zeros(len(cells), dtype=bool)
-    n, group = cell_groups(cells, gap_cells)
-    if n == 1:
-        return np.zeros(len(cells), dtype=bool)
-    size = np.bincount(group, weights=counts, minlength=n)
-    stray_group = (size < share * float(np.sum(counts))) & (size < STRAY_OF_LARGEST * size.max())
-    return stray_group[group]
-
-
-def cell_groups(cells: np.ndarray, gap_cells: int) -> tuple[int, np.ndarray]:
-    """Occupied cells within ``gap_cells`` cells of each other (centre to centre, plus half
-    a cell), chained, as groups: their number and each cell's group (0, 1, ...).
-
-    Examples
-    --------
-    >>> n, group = cell_groups(np.array([[0, 0], [3, 0], [20, 0]]), 4)
-    >>> n, group.tolist()
-    (2, [0, 0, 1])
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    if len(cells) <= 1:
-        return len(cells), np.zeros(len(cells), dtype=np.int64)
-    pairs = cKDTree(np.asarray(cells, np.float64)).query_pairs(gap_cells + 0.5, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cells), len(cells)))
-    n, group = connected_components(graph, directed=False)
-    return int(n), group.astype(np.int64)
 
 
 def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0, k: int = 1) -> float:

@@ -14,6 +14,12 @@ from .flags import typed_parser
 from .piles import finish_piles
 
 
+#: The demo's survey: the lines a surveyor plans to measure every spacing to the centimetre.
+DEMO_SURVEY = {"lines": "west,east,south,north,tops,tops-ew", "line_offset": 8.0}
+DEMO_TEXT = ("eight lines: the pile paper's '#' pattern 8 m outside the piles, and passes over the tops "
+             "both ways, a 400 kHz sonar with real-file noise")
+
+
 def _cmd_demo(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     from ..outputs import output_dir, write_json
     from ..piles import Design, PileOptions, locate_piles
@@ -23,9 +29,10 @@ def _cmd_demo(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> i
     options = PileOptions(radius=0.75, count=4, method=args.method, seed=args.seed)
     with output_dir(out, overwrite=args.overwrite) as tmp:
         t = time.perf_counter()
-        sim = simulate("jacket", seed=args.seed, progress=rep.progress("simulating the jacket survey"))
+        sim = simulate("jacket", seed=args.seed, progress=rep.progress("simulating the jacket survey"),
+                       **DEMO_SURVEY)
         rep.info(f"simulated the jacket preset: {len(sim.cloud):,} soundings in "
-                 f"{time.perf_counter() - t:.1f} s (seed {args.seed})")
+                 f"{time.perf_counter() - t:.1f} s (seed {args.seed}); {DEMO_TEXT}")
         design = Design(positions={d["id"]: (d["x"], d["y"]) for d in sim.truth["design"]},
                         source="design of the simulated jacket")
         t = time.perf_counter()

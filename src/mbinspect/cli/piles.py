@@ -41,8 +41,15 @@ def finish_piles(result: Any, points: Any, tmp: Path, out: Path, args: argparse.
     rep.info(f"results in {out}/ (report.html, piles.json, piles.csv, spacings.csv)")
     verdicts = [s.verdict for s in result.spacings] + [f.verdict for f in result.frames]
     if "fail" in verdicts or not result.ok:
+        rep.info(FLAGGED_MEANING)
         return EXIT_FLAGGED
     return EXIT_UNDECIDED if "undecided" in verdicts else 0
+
+
+#: The one line that says what the exit status 3 and the pile flags mean.
+FLAGGED_MEANING = ("exit 3: a spacing failed its tolerance or a pile is flagged: its warning says why the "
+                   "data cannot support a centimetre answer there (too few lines or sides seen, a plan "
+                   "1-sigma over --max-sigma); the results are written and the report shows each reason")
 
 
 def _cmd_piles(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:

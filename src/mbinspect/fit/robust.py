@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -141,14 +141,23 @@ def msac(
                 ratio = inl.sum() / n
                 needed = max(min_trials, ransac_trials(ratio, sample_size, confidence))
     if best is not None and refine is not None and best_inl.sum() >= sample_size:
-        for _ in range(3):  # local optimisation while the score improves
-            refined = refine(data[best_inl], best)
-            if refined is None:
-                break
-            s, inl = score_of(refined)
-            if s >= best_score:
-                break
-            best, best_score, best_inl = refined, s, inl
+        best, best_score, best_inl = _local_optimisation(data, best, best_score, best_inl, refine, score_of)
     if best is None:
         return RobustResult(None, best_inl, math.inf, trial, 0.0)
     return RobustResult(best, best_inl, best_score, trial, float(best_inl.sum()) / n)
+
+
+def _local_optimisation(data: np.ndarray, best: Any, score: float, inliers: np.ndarray,
+                        refine: Callable[[np.ndarray, Any], Any],
+                        score_of: Callable[[Any], tuple[float, np.ndarray]]) -> tuple[Any, float, np.ndarray]:
+    """The best model re-estimated from all its inliers, up to three times, while the
+    score improves."""
+    for _ in range(3):
+        refined = refine(data[inliers], best)
+        if refined is None:
+            break
+        s, inl = score_of(refined)
+        if s >= score:
+            break
+        best, score, inliers = refined, s, inl
+    return best, score, inliers

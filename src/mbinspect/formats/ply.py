@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -24,38 +25,7 @@ _PLY_TYPES = {
 
 def _read_ply(path: Path) -> PointCloud:
     with open(path, "rb") as fh:
-        magic = fh.readline().strip()
-        if magic != b"ply":
-            raise InputError(f"{path}, line 1: expected 'ply', got {magic[:20]!r}")
-        fmt = None
-        elements: list[tuple[str, int, list[tuple[str, str]]]] = []
-        lineno = 1
-        while True:
-            raw = fh.readline()
-            lineno += 1
-            if not raw:
-                raise InputError(f"{path}: the PLY header has no end_header line")
-            words = raw.decode("ascii", errors="replace").split()
-            if not words or words[0] in ("comment", "obj_info"):
-                continue
-            if words[0] == "format":
-                fmt = words[1] if len(words) > 1 else ""
-            elif words[0] == "element" and len(words) == 3:
-                if not words[2].isdigit():
-                    raise InputError(f"{path}, line {lineno}: element {words[1]!r} count {words[2]!r}; "
-                                     "expected a whole number >= 0")
-                elements.append((words[1], int(words[2]), []))
-            elif words[0] == "property":
-                if not elements:
-                    raise InputError(f"{path}, line {lineno}: property before any element")
-                if words[1] == "list":
-                    elements[-1][2].append((words[-1], "list"))
-                elif len(words) == 3 and words[1] in _PLY_TYPES:
-                    elements[-1][2].append((words[2], _PLY_TYPES[words[1]]))
-                else:
-                    raise InputError(f"{path}, line {lineno}: unknown property {raw!r}")
-            elif words[0] == "end_header":
-                break
+        fmt, elements = _ply_header(fh, path)
         if not elements or elements[0][0] != "vertex":
             raise InputError(f"{path}: expected the first PLY element to be 'vertex'")
         _, count, props = elements[0]
@@ -66,16 +36,7 @@ def _read_ply(path: Path) -> PointCloud:
             if axis not in names:
                 raise InputError(f"{path}: the vertex element has no {axis!r} property")
         if fmt == "ascii":
-            table = np.loadtxt(fh, dtype=np.float64, max_rows=count, ndmin=2)
-            if table.shape[0] != count or table.shape[1] != len(props):
-                raise InputError(
-                    f"{path}: expected {count} vertices of {len(props)} values, "
-                    f"got {table.shape[0]} of {table.shape[1] if table.size else 0}"
-                )
-            data = {n: table[:, i] for i, n in enumerate(names)}
-            if len(elements) == 1 and fh.read(4096).strip():
-                raise InputError(f"{path}: the header announces {count} vertices but more data follow; "
-                                 "expected the count of every vertex")
+            data = _ply_ascii(fh, path, count, names, more=len(elements) > 1)
         elif fmt in ("binary_little_endian", "binary_big_endian"):
             order = "<" if fmt == "binary_little_endian" else ">"
             dtype = np.dtype([(n, order + t) for n, t in props])
@@ -125,3 +86,54 @@ def _read(path: Path, request: ReadRequest) -> PointCloud:
 
 
 FORMAT = Format("ply", (".ply",), _read, _write_ply, 28.0, fields="every vertex property")
+
+
+def _ply_header(fh: BinaryIO, path: Path) -> tuple[str | None, list[tuple[str, int, list[tuple[str, str]]]]]:
+    """The PLY header: its format and its elements (name, count, properties)."""
+    magic = fh.readline().strip()
+    if magic != b"ply":
+        raise InputError(f"{path}, line 1: expected 'ply', got {magic[:20]!r}")
+    fmt = None
+    elements: list[tuple[str, int, list[tuple[str, str]]]] = []
+    lineno = 1
+    while True:
+        raw = fh.readline()
+        lineno += 1
+        if not raw:
+            raise InputError(f"{path}: the PLY header has no end_header line")
+        words = raw.decode("ascii", errors="replace").split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format":
+            fmt = words[1] if len(words) > 1 else ""
+        elif words[0] == "element" and len(words) == 3:
+            if not words[2].isdigit():
+                raise InputError(f"{path}, line {lineno}: element {words[1]!r} count {words[2]!r}; "
+                                 "expected a whole number >= 0")
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property":
+            if not elements:
+                raise InputError(f"{path}, line {lineno}: property before any element")
+            if words[1] == "list":
+                elements[-1][2].append((words[-1], "list"))
+            elif len(words) == 3 and words[1] in _PLY_TYPES:
+                elements[-1][2].append((words[2], _PLY_TYPES[words[1]]))
+            else:
+                raise InputError(f"{path}, line {lineno}: unknown property {raw!r}")
+        elif words[0] == "end_header":
+            return fmt, elements
+
+
+def _ply_ascii(fh: BinaryIO, path: Path, count: int, names: list[str], *, more: bool
+               ) -> dict[str, np.ndarray]:
+    """The vertices of an ASCII PLY, each property a column."""
+    table = np.loadtxt(fh, dtype=np.float64, max_rows=count, ndmin=2)
+    if table.shape[0] != count or table.shape[1] != len(names):
+        raise InputError(
+            f"{path}: expected {count} vertices of {len(names)} values, "
+            f"got {table.shape[0]} of {table.shape[1] if table.size else 0}"
+        )
+    if not more and fh.read(4096).strip():
+        raise InputError(f"{path}: the header announces {count} vertices but more data follow; "
+                         "expected the count of every vertex")
+    return {n: table[:, i] for i, n in enumerate(names)}

@@ -174,31 +174,16 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     shift = np.r_[s[:, :2].mean(axis=0), 0.0]
     ls, lt = s - shift, t - shift
     sounded = len(t) >= 3
-    if sounded:
-        pres = msac(lt, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold / 2,
-                    seed=seed, refine=lambda rows, _m: Plane.fit(rows))
-        if pres.model is None:
-            raise DataError("intersection method: no plane fits the top points")
-        plane = pres.model
-        lean = math.degrees(math.acos(min(1.0, abs(float(plane.normal[2])))))
-        level = lean <= max_tilt_deg + TOP_LEAN_MARGIN_DEG
-    else:
-        # a top no beam reached: the axis is read where the side's soundings end (or at the
-        # one or two top soundings); the top stands at least that high
-        if len(lt) == 0:
-            lt = ls[np.argsort(ls[:, 2])[-min(3, len(ls)):]]
-        plane, level = Plane(np.median(lt, axis=0), np.array([0.0, 0.0, 1.0])), True
+    plane, level, lean, lt, z_top = _top_plane(ls, lt, sounded, threshold=threshold, seed=seed,
+                                               max_tilt_deg=max_tilt_deg)
     if start is None:
         res = cylinder_msac(ls, side_normals, radius=radius, threshold=threshold,
                             max_tilt_deg=max_tilt_deg, seed=seed, free_radius=radius_mode != "fixed")
         if res.model is None:
             raise DataError("intersection method: no cylinder fits the side points")
         cyl0 = res.model
-        inl = res.inliers
     else:
         cyl0 = Cylinder(start.point - shift, start.axis, start.radius)
-        inl = np.abs(cyl0.residuals(ls)) <= threshold
-    z_top = float(np.median(lt[pres.inliers, 2] if sounded and level else lt[:, 2]))
     g = None if groups is None else np.asarray(groups)
 
     def refit(model: Cylinder, r: float | None, plumb: bool = False
@@ -234,6 +219,30 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     out_plane = Plane(plane.point + shift, plane.normal)
     top_in = np.abs(plane.residuals(t - shift)) <= threshold / 2
     return out_cyl, out_plane, centre + shift, inl, top_in, cov, notes, held
+
+
+def _top_plane(ls: np.ndarray, lt: np.ndarray, sounded: bool, *, threshold: float, seed: int,
+               max_tilt_deg: float) -> tuple[Plane, bool, float, np.ndarray, float]:
+    """The top's plane (MSAC on the top points), whether it is level enough to be the top,
+    its lean (deg), the top points (the highest side soundings when no beam reached the
+    top) and the top's elevation."""
+    lean = 0.0
+    if sounded:
+        pres = msac(lt, Plane.from_sample, lambda m, p: m.residuals(p), 3, threshold / 2,
+                    seed=seed, refine=lambda rows, _m: Plane.fit(rows))
+        if pres.model is None:
+            raise DataError("intersection method: no plane fits the top points")
+        plane = pres.model
+        lean = math.degrees(math.acos(min(1.0, abs(float(plane.normal[2])))))
+        level = lean <= max_tilt_deg + TOP_LEAN_MARGIN_DEG
+    else:
+        # a top no beam reached: the axis is read where the side's soundings end (or at the
+        # one or two top soundings); the top stands at least that high
+        if len(lt) == 0:
+            lt = ls[np.argsort(ls[:, 2])[-min(3, len(ls)):]]
+        plane, level = Plane(np.median(lt, axis=0), np.array([0.0, 0.0, 1.0])), True
+    z_top = float(np.median(lt[pres.inliers, 2] if sounded and level else lt[:, 2]))
+    return plane, level, lean, lt, z_top
 
 
 def _held_plumb(cyl: Cylinder, cov: np.ndarray, refit: Callable[..., tuple[Cylinder, np.ndarray, np.ndarray]],

@@ -189,6 +189,13 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     elif joint is not None:
         # the prior stands, known as well as the data know the radius, or as far off as they put it
         j = judged(opts, j[:5], radius_sigma=max(joint.sigma, abs(joint.radius - joint.prior)))
+    return _measured(j, thr, cloud, seabed, joint, warnings)
+
+
+def _measured(j: _Judged, thr: dict[int, Any], cloud: PointCloud, seabed: Any, joint: Any,
+              warnings: list[str]) -> MeasuredPiles:
+    """The kept piles renumbered with their covariances, segments and cylinders; the
+    candidates set aside (not measurable, not piles) listed with their reasons."""
     segs, seg_info, fits, iterations, unmeasured, piles, kept, rejected = j
     for pid, why in unmeasured.items():
         c = segs[pid].points.mean(axis=0)

@@ -104,24 +104,7 @@ def separate_piles(points: np.ndarray, *, count: int | None = None, radius: floa
     if wide:
         warnings.append(f"{wide} structure(s) wider than a pile of radius {radius} m were left out")
     if count is not None and parts:
-        sel = np.concatenate(parts)
-        # K-means splits a part only into its large shares (at most 1 / 0.25 = 4), and a
-        # part no wider than one pile not at all: more clusters than that cannot be found
-        possible = sum(1 if float(np.ptp(pts[idx, :2], axis=0).max()) <= 2 * radius + 0.5 else 4
-                       for idx in parts)
-        km, _ = kmeans(pts[sel, :2], min(count, len(sel), possible), seed=seed)
-        km_of = np.full(len(pts), -1, dtype=np.int64)
-        km_of[sel] = km
-        split: list[np.ndarray] = []
-        for idx in parts:
-            shares = np.bincount(km_of[idx])
-            big = np.flatnonzero(shares >= max(min_points, 0.25 * len(idx)))
-            one_pile = float(np.ptp(pts[idx, :2], axis=0).max()) <= 2 * radius + 0.5
-            if len(big) <= 1 or one_pile:
-                split.append(idx)
-            else:
-                split += [idx[km_of[idx] == k] for k in big]
-        parts = split
+        parts = _split_by_kmeans(pts, parts, count, radius, seed=seed, min_points=min_points)
         if len(parts) > count:
             parts.sort(key=len, reverse=True)
             warnings.append(f"count {count}: the data show {len(parts)} pile-like structures; "
@@ -142,3 +125,28 @@ def separate_piles(points: np.ndarray, *, count: int | None = None, radius: floa
                             f"{span:.1f} m in plan, more than a pile of radius {radius} m: "
                             "merged structures?")
     return labels, warnings
+
+
+def _split_by_kmeans(pts: np.ndarray, parts: list[np.ndarray], count: int, radius: float, *, seed: int,
+                     min_points: int) -> list[np.ndarray]:
+    """The paper's K-means on the parts' points: a part it splits into several large shares
+    (touching piles) is split accordingly; labels follow the parts, so no cluster takes a
+    neighbour's or stray points."""
+    sel = np.concatenate(parts)
+    # K-means splits a part only into its large shares (at most 1 / 0.25 = 4), and a
+    # part no wider than one pile not at all: more clusters than that cannot be found
+    possible = sum(1 if float(np.ptp(pts[idx, :2], axis=0).max()) <= 2 * radius + 0.5 else 4
+                   for idx in parts)
+    km, _ = kmeans(pts[sel, :2], min(count, len(sel), possible), seed=seed)
+    km_of = np.full(len(pts), -1, dtype=np.int64)
+    km_of[sel] = km
+    split: list[np.ndarray] = []
+    for idx in parts:
+        shares = np.bincount(km_of[idx])
+        big = np.flatnonzero(shares >= max(min_points, 0.25 * len(idx)))
+        one_pile = float(np.ptp(pts[idx, :2], axis=0).max()) <= 2 * radius + 0.5
+        if len(big) <= 1 or one_pile:
+            split.append(idx)
+        else:
+            split += [idx[km_of[idx] == k] for k in big]
+    return split

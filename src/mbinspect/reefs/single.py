@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-from ..grid import cell_groups, cell_index
+from ..grid import cell_index
+from ..strays import cell_groups
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .footprint import Raster
 from .ground import Seabed

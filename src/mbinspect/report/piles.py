@@ -9,12 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from ..outputs import atomic_path
-from .gis import crs_label, crs_name, crs_of, write_gis
+from .gis import crs_label, crs_name, crs_of
 from .html import html_page, html_table, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
+from .writers import Outputs, write_outputs
 
-__all__ = ["pile_figures", "spacing_table", "write_pile_outputs", "pile_verdicts"]
+__all__ = ["pile_figures", "spacing_table", "pile_outputs", "write_pile_outputs", "pile_verdicts"]
 
 
 def _plan(result: Any, points: np.ndarray, piles: list[Any], spacings: list[Any], path: Path, title: str
@@ -82,7 +82,6 @@ def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
     -------
     dict
     """
-    plt = mpl()
     images: dict[str, bytes] = {}
     piles = list(result.piles)
     groups = sorted({p.group for p in piles})
@@ -101,54 +100,65 @@ def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
                                          "from the design")
     for p in piles:
         seg = result.segments.get(p.id)
-        if seg is None:
-            continue
-        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.6))
-        pts = seg.points - [p.x, p.y, 0.0]
-        other = ~(seg.top | seg.side)
-        for ax_, i, j in ((a1, 0, 1), (a2, 0, 2)):
-            ax_.scatter(pts[other, i], pts[other, j], s=2, c="0.7", label="other")
-            ax_.scatter(pts[seg.side, i], pts[seg.side, j], s=2, c="tab:blue", label="side")
-            ax_.scatter(pts[seg.top, i], pts[seg.top, j], s=2, c="tab:orange", label="top")
-        t = np.linspace(0, 2 * np.pi, 200)
-        a1.plot(p.radius * np.cos(t), p.radius * np.sin(t), "r-", lw=1.2, label="fitted top")
-        a1.set_aspect("equal")
-        a1.set_xlabel("east from centre (m)")
-        a1.set_ylabel("north from centre (m)")
-        a1.legend(loc="upper right", fontsize=7, markerscale=4)
-        cyl = result.cylinders.get(p.id)
-        zlo = float(pts[:, 2].min())
-        if cyl is not None:
-            ax_dir = cyl.axis / cyl.axis[2]
-            zz = np.array([zlo, p.z])
-            dx = (zz - p.z) * ax_dir[0]
-            a2.plot(dx, zz, "r--", lw=1, label="axis")
-            for sgn in (-1, 1):
-                a2.plot(dx + sgn * p.radius / cyl.axis[2], zz, "r-", lw=1.2)
-        a2.set_xlabel("east from centre (m)")
-        a2.set_ylabel("elevation (m)")
-        tilt = ("" if p.tilt_deg is None else ", no tilt shown: axis held plumb" if p.tilt_held
-                else f", tilt {p.tilt_deg:.2f} deg toward {p.tilt_azimuth_deg:.0f} deg")
-        fig.suptitle(f"Pile {p.id}: {p.n_top} top and {p.n_side} side points{tilt}")
-        images[f"pile{p.id}"] = save_figure(fig, out / f"pile_{p.id}.png")
+        if seg is not None:
+            images[f"pile{p.id}"] = _pile_figure(p, seg, result.cylinders.get(p.id), out / f"pile_{p.id}.png")
     if result.iterations:
-        fig, ax = plt.subplots(figsize=(7.5, 4.2))
-        its = [it["iteration"] for it in result.iterations]
-        design = {f"{s.a}-{s.b}": s.design for s in result.spacings}
-        final = result.iterations[-1]["spacings"]
-        for key in final:
-            vals = np.array([it["spacings"].get(key, np.nan) for it in result.iterations])
-            base = design.get(key)
-            dev = vals - (base if base is not None else final[key])
-            ax.plot(its, 100 * dev, "o-", ms=3, label=key)
-        ax.axhline(0, color="k", lw=0.6)
-        ax.set_xlabel("iteration")
-        ax.set_ylabel("deviation from design (cm)" if any(v is not None for v in design.values())
-                      else "change from the final value (cm)")
-        ax.set_title("Spacing convergence")
-        ax.legend(fontsize=7, ncol=3)
-        images["convergence"] = save_figure(fig, out / "convergence.png")
+        images["convergence"] = _convergence(result, out / "convergence.png")
     return images
+
+
+def _pile_figure(p: Any, seg: Any, cyl: Any, path: Path) -> bytes:
+    """One pile: its top, side and other points in plan and in an east-west section, the
+    fitted top and axis."""
+    plt = mpl()
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.6))
+    pts = seg.points - [p.x, p.y, 0.0]
+    other = ~(seg.top | seg.side)
+    for ax_, i, j in ((a1, 0, 1), (a2, 0, 2)):
+        ax_.scatter(pts[other, i], pts[other, j], s=2, c="0.7", label="other")
+        ax_.scatter(pts[seg.side, i], pts[seg.side, j], s=2, c="tab:blue", label="side")
+        ax_.scatter(pts[seg.top, i], pts[seg.top, j], s=2, c="tab:orange", label="top")
+    t = np.linspace(0, 2 * np.pi, 200)
+    a1.plot(p.radius * np.cos(t), p.radius * np.sin(t), "r-", lw=1.2, label="fitted top")
+    a1.set_aspect("equal")
+    a1.set_xlabel("east from centre (m)")
+    a1.set_ylabel("north from centre (m)")
+    a1.legend(loc="upper right", fontsize=7, markerscale=4)
+    zlo = float(pts[:, 2].min())
+    if cyl is not None:
+        ax_dir = cyl.axis / cyl.axis[2]
+        zz = np.array([zlo, p.z])
+        dx = (zz - p.z) * ax_dir[0]
+        a2.plot(dx, zz, "r--", lw=1, label="axis")
+        for sgn in (-1, 1):
+            a2.plot(dx + sgn * p.radius / cyl.axis[2], zz, "r-", lw=1.2)
+    a2.set_xlabel("east from centre (m)")
+    a2.set_ylabel("elevation (m)")
+    tilt = ("" if p.tilt_deg is None else ", no tilt shown: axis held plumb" if p.tilt_held
+            else f", tilt {p.tilt_deg:.2f} deg toward {p.tilt_azimuth_deg:.0f} deg")
+    fig.suptitle(f"Pile {p.id}: {p.n_top} top and {p.n_side} side points{tilt}")
+    return save_figure(fig, path)
+
+
+def _convergence(result: Any, path: Path) -> bytes:
+    """Each spacing's deviation from the design, iteration by iteration (the paper's Fig. 4)."""
+    plt = mpl()
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    its = [it["iteration"] for it in result.iterations]
+    design = {f"{s.a}-{s.b}": s.design for s in result.spacings}
+    final = result.iterations[-1]["spacings"]
+    for key in final:
+        vals = np.array([it["spacings"].get(key, np.nan) for it in result.iterations])
+        base = design.get(key)
+        dev = vals - (base if base is not None else final[key])
+        ax.plot(its, 100 * dev, "o-", ms=3, label=key)
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("deviation from design (cm)" if any(v is not None for v in design.values())
+                  else "change from the final value (cm)")
+    ax.set_title("Spacing convergence")
+    ax.legend(fontsize=7, ncol=3)
+    return save_figure(fig, path)
 
 
 _PILE_COLS = ["id", "group", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "tilt_held", "method",
@@ -267,13 +277,40 @@ def spacing_table(result: Any, truth: Mapping[tuple[int, int], float] | None = N
     return "\n".join(lines)
 
 
+def pile_outputs(result: Any, points: np.ndarray, *, title: str = "Pile positions and spacings",
+                 truth: Mapping[str, Any] | None = None) -> Outputs:
+    """What the writers write of a pile result: ``piles.json``, ``piles.csv``,
+    ``spacings.csv``, the GeoJSON, the figures and ``report.html``.
+
+    Parameters
+    ----------
+    result : PileResult
+    points : ndarray, shape (N, 3)
+        The soundings, for the figures.
+    title : str
+    truth : mapping, optional
+        A simulator truth dict: adds the errors against truth to the report.
+
+    Returns
+    -------
+    Outputs
+    """
+    d = result.to_dict()
+    # with both methods, both methods' piles: one row per pile and method
+    rows = d["piles"] + d["other_piles"]
+    features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [p["x"], p["y"]]},
+                 "properties": {c: p.get(c) for c in _PILE_COLS if c != "flags"}
+                 | {"flags": "; ".join(p.get("flags", []))}} for p in rows]
+    tables = (("piles.csv", rows, _PILE_COLS), ("spacings.csv", d["spacings"], _SPACING_COLS))
+    return Outputs("piles", d, tables, features, crs_of(result),
+                   lambda out: pile_figures(result, points, out), _figure_file,
+                   lambda images: html_page(title, _page(result, d, images, truth), images))
+
+
 def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: bool = True,
                        title: str = "Pile positions and spacings",
                        truth: Mapping[str, Any] | None = None) -> list[str]:
-    """Write ``piles.json``, ``piles.csv``, ``spacings.csv``, figures and ``report.html``.
-
-    Returns the names of the files written. ``truth`` (a simulator truth dict) adds the
-    errors against truth to the report.
+    """Write every output of a pile result into ``out`` (:func:`pile_outputs`, :data:`WRITERS`).
 
     Parameters
     ----------
@@ -285,26 +322,24 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     figures : bool
     title : str
     truth : mapping, optional
-    """
-    from ..outputs import write_json, write_table
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    d = result.to_dict()
-    write_json(d, out / "piles.json")
-    # with both methods, both methods' piles: one row per pile and method
-    write_table(d["piles"] + d["other_piles"], out / "piles.csv", _PILE_COLS)
-    write_table(d["spacings"], out / "spacings.csv", _SPACING_COLS)
-    features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [p["x"], p["y"]]},
-                 "properties": {c: p.get(c) for c in _PILE_COLS if c != "flags"}
-                 | {"flags": "; ".join(p.get("flags", []))}} for p in d["piles"] + d["other_piles"]]
-    written = ["piles.json", "piles.csv", "spacings.csv", *write_gis(features, crs_of(result), out, "piles")]
-    images: dict[str, bytes] = {}
-    if figures:
-        images = pile_figures(result, points, out)
-        written += sorted(f"{n}.png" if n in ('plan', 'convergence') else
-                          f"plan_jacket_{n[6:]}.png" if n.startswith("jacket") else f"pile_{n[4:]}.png"
-                          for n in images)
+    Returns
+    -------
+    list of str
+        The files written.
+    """
+    return write_outputs(pile_outputs(result, points, title=title, truth=truth), out, figures=figures)
+
+
+def _figure_file(name: str) -> str:
+    if name in ("plan", "convergence"):
+        return f"{name}.png"
+    return f"plan_jacket_{name[6:]}.png" if name.startswith("jacket") else f"pile_{name[4:]}.png"
+
+
+def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes],
+          truth: Mapping[str, Any] | None) -> list[tuple[str, str]]:
+    """The report's sections."""
     sections = [("Verdict", verdict_banner(pile_verdicts(result)))]
     if result.warnings:
         sections.append(("Warnings", "<ul>" + "".join(f"<li class='warn'>{html.escape(w)}</li>"
@@ -314,14 +349,7 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
         rows = [_spacing_row(s) for s in result.spacings if s.group == g]
         heading = f"Jacket {g}: spacings" if g else "Spacings between jackets"
         sections.append((heading, html_table(rows, list(_SPACING_HEAD), list(_SPACING_HEAD.values()))))
-    for f in result.frames:
-        rows = [{"id": q["id"], "dx": f"{1000 * q['dx']:+.0f}", "dy": f"{1000 * q['dy']:+.0f}",
-                 "miss": f"{1000 * q['miss']:.0f}", "sigma": f"{1000 * q['sigma']:.1f}",
-                 "miss_95": f"{1000 * q['miss_95']:.0f}", "verdict": q["verdict"]} for q in f.residuals]
-        sections.append((f"Jacket {f.group}: design frame fit ({f.verdict} at 95 %, tolerance "
-                         f"{1000 * f.tolerance:.0f} mm; rotation {f.rotation_deg:+.3f}°, shift "
-                         f"{f.shift_x:+.3f} m east, {f.shift_y:+.3f} m north)",
-                         html_table(rows, list(_FRAME_HEAD), list(_FRAME_HEAD.values()))))
+    sections += [_frame_section(f) for f in result.frames]
     sections.append(("Piles (top centre)", html_table([_pile_row(q) for q in result.piles], list(_PILE_HEAD),
                                                       list(_PILE_HEAD.values()))))
     if result.other_piles:
@@ -341,8 +369,15 @@ def write_pile_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
         sections.append(("Each pile", "".join("{img:" + n + "}" for n in images if n.startswith("pile"))))
     sections.append(("Input and software", provenance_table(d["parameters"])))
     sections.append(("Parameters", parameter_table(d["parameters"])))
-    page = html_page(title, sections, images)
-    with atomic_path(out / "report.html") as tmp:
-        tmp.write_text(page, encoding="utf-8")
-    written.append("report.html")
-    return written
+    return sections
+
+
+def _frame_section(f: Any) -> tuple[str, str]:
+    """A jacket's design frame fit: its heading and table."""
+    rows = [{"id": q["id"], "dx": f"{1000 * q['dx']:+.0f}", "dy": f"{1000 * q['dy']:+.0f}",
+             "miss": f"{1000 * q['miss']:.0f}", "sigma": f"{1000 * q['sigma']:.1f}",
+             "miss_95": f"{1000 * q['miss_95']:.0f}", "verdict": q["verdict"]} for q in f.residuals]
+    return (f"Jacket {f.group}: design frame fit ({f.verdict} at 95 %, tolerance "
+            f"{1000 * f.tolerance:.0f} mm; rotation {f.rotation_deg:+.3f}°, shift "
+            f"{f.shift_x:+.3f} m east, {f.shift_y:+.3f} m north)",
+            html_table(rows, list(_FRAME_HEAD), list(_FRAME_HEAD.values())))

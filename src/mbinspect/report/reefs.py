@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import html
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..outputs import atomic_path
-from .gis import crs_label, crs_name, crs_of, write_gis
+from .gis import crs_label, crs_name, crs_of
 from .html import html_page, html_table, json_dumps, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
+from .writers import Outputs, write_outputs
 
-__all__ = ["reef_figures", "write_reef_outputs", "reef_verdicts"]
+__all__ = ["reef_figures", "reef_outputs", "write_reef_outputs", "reef_verdicts"]
 
 
 _REEF_COLS = ["id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "width",
@@ -195,9 +196,37 @@ def reef_verdicts(result: Any) -> list[tuple[str, str]]:
     return [(text, level)]
 
 
+def reef_outputs(result: Any, points: np.ndarray, *, title: str = "Artificial reefs") -> Outputs:
+    """What the writers write of a reef result: ``reefs.json``, ``reefs.csv``, the GeoJSON
+    (the footprints as polygons), the figures and ``report.html``.
+
+    Parameters
+    ----------
+    result : ReefResult
+    points : ndarray, shape (N, 3)
+        The soundings, for the figures.
+    title : str
+
+    Returns
+    -------
+    Outputs
+    """
+    d = result.to_dict()
+    cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else [])
+    features = []
+    for r in d["reefs"]:
+        ring = r["outline"] + r["outline"][:1] if r["outline"] else []
+        features.append({"type": "Feature",
+                         "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
+                         "properties": {c: r[c] for c in cols}})
+    return Outputs("reefs", d, (("reefs.csv", d["reefs"], cols),), features, crs_of(result),
+                   lambda out: reef_figures(result, points, out), _figure_file,
+                   lambda images: html_page(title, _page(result, d, images), images))
+
+
 def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: bool = True,
                        title: str = "Artificial reefs") -> list[str]:
-    """Write ``reefs.json``, ``reefs.csv``, ``reefs.geojson``, figures and ``report.html``.
+    """Write every output of a reef result into ``out`` (:func:`reef_outputs`, :data:`WRITERS`).
 
     Parameters
     ----------
@@ -213,25 +242,15 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     list of str
         The files written.
     """
+    return write_outputs(reef_outputs(result, points, title=title), out, figures=figures)
 
-    from ..outputs import write_json, write_table
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    d = result.to_dict()
-    write_json(d, out / "reefs.json")
-    cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else [])
-    write_table(d["reefs"], out / "reefs.csv", cols)
-    features = []
-    for r in d["reefs"]:
-        ring = r["outline"] + r["outline"][:1] if r["outline"] else []
-        features.append({"type": "Feature",
-                         "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
-                         "properties": {c: r[c] for c in cols}})
-    written = ["reefs.json", "reefs.csv", *write_gis(features, crs_of(result), out, "reefs")]
-    images = reef_figures(result, points, out) if figures else {}
-    written += [f"plan_group_{n[8:]}.png" if n.startswith("groupmap") else f"{n}.png" for n in images]
-    ev = d["evaluation"]
+def _figure_file(name: str) -> str:
+    return f"plan_group_{name[8:]}.png" if name.startswith("groupmap") else f"{name}.png"
+
+
+def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[tuple[str, str]]:
+    """The report's sections."""
     sections = [("Verdict", verdict_banner(reef_verdicts(result)))]
     if result.warnings:
         sections.append(("Warnings", "<ul>" + "".join(f"<li class='warn'>{html.escape(w)}</li>"
@@ -244,17 +263,8 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
         {"item": "seabed model", "value": d["seabed"].get("method")},
         {"item": "seabed residual RMS (m)", "value": f"{d['seabed'].get('residual_rms', float('nan')):.3f}"}]
     sections.append(("Summary", html_table(summary, ["item", "value"])))
-    if ev is not None:
-        sections.append(("Scoring rule", f"<p>{html.escape(ev['counting'])}; tolerance "
-                                         f"{ev['tolerance']} m.</p>"))
-        matches = [{"reference": m["reference"], "reef": m["reef"], "error": f"{m['distance']:.2f}"}
-                   for m in ev["matches"]]
-        matches += [{"reference": rid, "reef": "missed (FN)", "error": ""}
-                    for rid in ev["unmatched_references"]]
-        matches += [{"reference": "none (FP)", "reef": rid, "error": ""}
-                    for rid in ev["unmatched_reefs"]]
-        sections.append(("Match table", html_table(matches, ["reference", "reef", "error"],
-                                                   ["reference", "reef", "position error (m)"])))
+    if d["evaluation"] is not None:
+        sections += _scoring_sections(d["evaluation"])
     if images:
         sections.append(("Plan map", "{img:plan}"))
         for n in images:
@@ -281,7 +291,15 @@ def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: b
     sections.append(("Filters and seabed", f"<pre>{html.escape(listing)}</pre>"))
     sections.append(("Input and software", provenance_table(d["parameters"])))
     sections.append(("Parameters", parameter_table(d["parameters"])))
-    with atomic_path(out / "report.html") as tmp:
-        tmp.write_text(html_page(title, sections, images), encoding="utf-8")
-    written.append("report.html")
-    return written
+    return sections
+
+
+def _scoring_sections(ev: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """The scoring rule and the match table."""
+    matches = [{"reference": m["reference"], "reef": m["reef"], "error": f"{m['distance']:.2f}"}
+               for m in ev["matches"]]
+    matches += [{"reference": rid, "reef": "missed (FN)", "error": ""} for rid in ev["unmatched_references"]]
+    matches += [{"reference": "none (FP)", "reef": rid, "error": ""} for rid in ev["unmatched_reefs"]]
+    return [("Scoring rule", f"<p>{html.escape(ev['counting'])}; tolerance {ev['tolerance']} m.</p>"),
+            ("Match table", html_table(matches, ["reference", "reef", "error"],
+                                       ["reference", "reef", "position error (m)"]))]

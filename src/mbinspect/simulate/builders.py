@@ -49,6 +49,7 @@ def build_jacket(opt: JacketOptions, rng: np.random.Generator, sonar: Sonar
         "west": [((-o, -e), (-o, e))], "east": [((o, e), (o, -e))],
         "south": [((e, -o), (-e, -o))], "north": [((-e, o), (e, o))],
         "tops": [((-h, -e), (-h, e)), ((h, e), (h, -e))],
+        "tops-ew": [((-e, -h), (e, -h)), ((e, h), (-e, h))],
     }
     lines = []
     for name in [s.strip() for s in opt.lines.split(",") if s.strip()]:

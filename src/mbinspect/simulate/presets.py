@@ -198,4 +198,4 @@ def rakes(text: str) -> list[float]:
 
 
 #: The survey lines the ``jacket`` preset can sail.
-JACKET_LINES = ("west", "east", "south", "north", "tops")
+JACKET_LINES = ("west", "east", "south", "north", "tops", "tops-ew")

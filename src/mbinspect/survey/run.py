@@ -2,7 +2,7 @@
 
 Small surveys are read whole and run in memory. A survey larger than ``memory_limit`` (or
 with ``tiled``) is streamed file by file into blocks on disk
-(:func:`~mbinspect.survey.tiles.bin_file`), cut into the tiles that finish soonest within a
+(:func:`~mbinspect.survey.bins.bin_file`), cut into the tiles that finish soonest within a
 tile's memory (:func:`~mbinspect.survey.tiles.choose_plan`), each tile with its buffer is
 run through the pipeline on its own (in this process or on Dask), each object is kept by
 the tile holding its centre, and the kept objects are merged once: reefs numbered and
@@ -23,14 +23,16 @@ import numpy as np
 
 from ..errors import DataError, NotEnoughPointsError
 from ..formats import format_of
-from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory, stray_cells
+from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory
 from ..options import Options, option
 from ..pipeline import Pipeline, TilePart
 from ..pipelines import pipeline_named
+from ..strays import stray_cells
 from ..version import __version__
+from .bins import FileBins, bin_file, block_counts
 from .cluster import Progress, dask_client, map_tasks
 from .inputs import read_survey
-from .tiles import FileBins, TilePlan, bin_file, block_counts, choose_plan, load_tile, tile_slices
+from .tiles import TilePlan, choose_plan, load_tile, tile_slices
 
 __all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "TileTask", "TileOutcome",
            "estimate_soundings", "BYTES_PER_SOUNDING"]

@@ -1,0 +1,122 @@
+"""Each ping's transducer, estimated from the ping's own soundings; pings of an export without
+ping numbers, estimated from the soundings' order."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["ping_origins", "estimate_pings"]
+
+
+def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *, min_beams: int = 5
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Each sounding's transducer position, estimated from its ping's soundings.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    ping : ndarray of int, shape (N,)
+    beam_angle : ndarray, shape (N,)
+        Degrees from vertical (+ starboard).
+    min_beams : int
+        Fewest soundings, spread over at least 10° of angle, for a ping's estimate.
+
+    Returns
+    -------
+    origins : ndarray, shape (N, 3)
+        NaN for the soundings of pings that cannot be estimated.
+    ok : ndarray of bool, shape (N,)
+
+    Examples
+    --------
+    >>> ang = np.linspace(-60, 60, 41)
+    >>> across = 20 * np.tan(np.radians(ang))
+    >>> pts = np.column_stack([100 + across, np.full(41, 50.0), np.full(41, -20.0)])
+    >>> o, ok = ping_origins(pts, np.zeros(41, int), ang)
+    >>> (np.round(o[0], 6) + 0.0).tolist(), bool(ok.all())
+    ([100.0, 50.0, 0.0], True)
+    """
+    pts = np.asarray(points, float)
+    origins = np.full_like(pts, np.nan)
+    tan = np.tan(np.radians(np.clip(beam_angle, -85, 85)))
+    order = np.argsort(ping, kind="stable")
+    bounds = np.flatnonzero(np.diff(ping[order])) + 1
+    for rows in np.split(order, bounds):
+        if len(rows) < min_beams or np.ptp(beam_angle[rows]) < 10:
+            continue
+        a = np.column_stack([np.ones(len(rows)), tan[rows]])
+        (x0, sx), *_ = np.linalg.lstsq(a, pts[rows, 0], rcond=None)
+        (y0, sy), *_ = np.linalg.lstsq(a, pts[rows, 1], rcond=None)
+        h = math.hypot(sx, sy)
+        if not h > 0:
+            continue
+        near = rows[np.argsort(np.abs(tan[rows]))[:3]]
+        origins[rows] = [x0, y0, float(np.median(pts[near, 2])) + h]
+    return origins, np.isfinite(origins[:, 0])
+
+
+def estimate_pings(points: np.ndarray, *, jump: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
+    """Pings and beam angles of soundings that lost them (an XYZ or LAS export), from their order.
+
+    Exports keep each ping's soundings together, beam after beam across the swath: a step
+    from one sounding to the next of more than ``jump`` times the median step starts a new
+    ping. Each ping's transducer is taken above the middle of its swath (along the ping's
+    principal axis, beams running port to starboard in the file's order) at the water
+    surface (z = 0), which gives each sounding's beam angle.
+    Both are assumptions; :func:`inject` says so in a warning.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        In file order, z elevation (depths negative).
+    jump : float
+
+    Returns
+    -------
+    ping : ndarray of int, shape (N,)
+    beam_angle : ndarray, shape (N,)
+        Degrees from vertical.
+
+    Raises
+    ------
+    InputError
+        No ping structure in the order (fewer than 3 pings of at least 5 soundings), or
+        soundings above the surface.
+
+    Examples
+    --------
+    >>> ang = np.radians(np.linspace(-60, 60, 21))
+    >>> pings = [np.column_stack([20 * np.tan(ang), np.full(21, 0.5 * k), np.full(21, -20.0)])
+    ...          for k in range(4)]
+    >>> ping, angle = estimate_pings(np.vstack(pings))
+    >>> ping[[0, 20, 21, 83]].tolist(), round(float(angle[0]), 1), round(float(angle[10]), 1)
+    ([0, 0, 1, 3], -60.0, 0.0)
+    """
+    pts = np.asarray(points, float)
+    step = np.hypot(*np.diff(pts[:, :2], axis=0).T)
+    typical = float(np.median(step)) if len(step) else 0.0
+    ping = np.concatenate([[0], np.cumsum(step > jump * max(typical, 1e-6))]).astype(np.int64)
+    sizes = np.bincount(ping)
+    if (sizes >= 5).sum() < 3:
+        raise InputError("the soundings' order shows no pings (expected each ping's soundings together, "
+                         "beam after beam); give a survey with ping and beam_angle fields")
+    if np.median(pts[:, 2]) >= 0:
+        raise InputError("the soundings lie above z = 0; expected elevations below the water surface "
+                         "(negative depths) to place the transducers")
+    angle = np.zeros(len(pts))
+    order = np.argsort(ping, kind="stable")
+    for rows in np.split(order, np.flatnonzero(np.diff(ping[order])) + 1):
+        if len(rows) < 2:
+            continue
+        xy = pts[rows, :2] - pts[rows, :2].mean(axis=0)
+        axis = np.linalg.svd(xy, full_matrices=False)[2][0]
+        s = xy @ axis
+        if np.corrcoef(s, np.arange(len(s)))[0, 1] < 0:  # beams run port to starboard in the order
+            s = -s
+        s -= 0.5 * (s.min() + s.max())
+        angle[rows] = np.degrees(np.arctan2(s, np.maximum(-pts[rows, 2], 1e-3)))
+    return ping, angle
