@@ -13,9 +13,8 @@ from .common import Reporter, add_output, subcommand
 from .flags import typed_parser
 from .piles import finish_piles
 
-
 #: The demo's survey: the lines a surveyor plans to measure every spacing to the centimetre.
-DEMO_SURVEY = {"lines": "west,east,south,north,tops,tops-ew", "line_offset": 8.0}
+DEMO_SURVEY: dict[str, Any] = {"lines": "west,east,south,north,tops,tops-ew", "line_offset": 8.0}
 DEMO_TEXT = ("eight lines: the pile paper's '#' pattern 8 m outside the piles, and passes over the tops "
              "both ways, a 400 kHz sonar with real-file noise")
 

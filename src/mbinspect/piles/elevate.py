@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..checks import check_points, positive
+from ..errors import NotEnoughPointsError
 from ..filters import radius_outlier
 from ..noise import backscatter_anomaly, robust_sigma
 from ..seabed import GridSurface, grid_seabed
@@ -174,7 +175,7 @@ def intensity_threshold(cloud_int: np.ndarray | None, elevated: np.ndarray, near
         return None
     try:
         thr = otsu_threshold(np.r_[up, down])
-    except Exception:
+    except NotEnoughPointsError:  # one value only: no threshold
         return None
     # only a split between two clear classes is a threshold: structure brighter than seabed
     mu, md = np.median(up), np.median(down)

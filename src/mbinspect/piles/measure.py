@@ -137,7 +137,7 @@ def _by_intersection(seg: PileSegment, top: np.ndarray, side: np.ndarray, side_m
                                   groups=None if gside is None else gside[s_in], random_effects=False)
         r_free = free.radius
         r_sigma = math.sqrt(float(fcov[4, 4])) if fcov.shape[0] > 4 and fcov[4, 4] >= 0 else math.nan
-    except Exception:
+    except (ValueError, np.linalg.LinAlgError):  # no free radius from this side (DataError included)
         pass
     sig = plan_sigma(cov)
     grad = None if not gradient or options.radius_mode == "free" or cyl.radius != options.radius else \
@@ -166,7 +166,7 @@ def _radius_gradient(side: np.ndarray, cyl: Any, plane: Any, centre: np.ndarray,
                                 plumb=plumb, random_effects=False)
         base, _ = fit_cylinder(side, cyl, radius=cyl.radius, z_ref=float(centre[2]), groups=groups,
                                plumb=plumb, random_effects=False)
-    except Exception:
+    except (ValueError, np.linalg.LinAlgError):  # the side does not hold a refit (DataError included)
         return None
     a, b = wider.intersect(plane), base.intersect(plane)
     if a is None or b is None:

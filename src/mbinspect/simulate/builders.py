@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -97,30 +99,76 @@ def build_wharf(opt: WharfOptions, rng: np.random.Generator, sonar: Sonar
 
 
 def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Sonar
-                ) -> tuple[Scene, Survey, dict[str, Any]]:
+                     ) -> tuple[Scene, Survey, dict[str, Any]]:
+    """The ``reef-field`` scene (groups of reefs on a square grid, jittered; chosen
+    neighbours brought close or into contact; boulders, debris and rocks among them) and
+    its parallel lines.
+
+    Parameters
+    ----------
+    opt : ReefFieldOptions
+    rng : Generator
+        The scene's randomness.
+    sonar : Sonar
+
+    Returns
+    -------
+    scene : Scene
+    survey : Survey
+    extra : dict
+        Nothing more for the truth.
+    """
     kinds = [s.strip() for s in opt.groups.split(",") if s.strip()]
     if not kinds:
         raise ParameterError("groups: no reef group given; expected e.g. cross2,cross1")
-    ng = len(kinds)
-    cols = int(math.ceil(math.sqrt(ng)))
-    rows = int(math.ceil(ng / cols))
+    cols = int(math.ceil(math.sqrt(len(kinds))))
+    rows = int(math.ceil(len(kinds) / cols))
     seabed = Seabed(z0=opt.seabed, slope_deg=opt.slope_deg, slope_bearing_deg=rng.uniform(0, 360),
                     sand_wave_amplitude=opt.sand_wave_amplitude,
                     sand_wave_length=opt.sand_wave_length,
                     sand_wave_bearing_deg=rng.uniform(0, 180), roughness=opt.roughness,
                     extent=opt.group_spacing * max(rows, cols) / 2 + 90,
                     seed=int(rng.integers(2**31)))
-    side = int(math.ceil(math.sqrt(opt.per_group)))
-    reefs: list[Reef] = []
-
     # one sink per reef id, drawn up front so that a reef rebuilt for the shore (below) keeps
     # its own; the table's size bounds the ids, not the field (ids stay in the hundreds)
     sunk = rng.uniform(0.0, opt.burial_max, 10_000) if opt.burial_max > 0 else np.zeros(10_000)
+    make = functools.partial(_make_reef, seabed, sunk, opt.reef_scale)
+    reefs = _place_groups(kinds, cols, rows, opt, rng, make)
+    _bring_together(reefs, opt, rng, make)
+    xy = np.array([[r.x, r.y] for r in reefs])
+    lo, hi = xy.min(axis=0) - 12, xy.max(axis=0) + 12
+    if opt.shore_width > 0:
+        seabed = dataclasses.replace(seabed, shore_start=float(hi[1]) + 3.0,
+                                     shore_width=opt.shore_width)
+        make = functools.partial(_make_reef, seabed, sunk, opt.reef_scale)
+        reefs = [make(r.id, r.kind, r.x, r.y, r.bearing_deg, r.group) for r in reefs]
+    survey_hi = hi + np.array([0.0, opt.shore_width])
+    boulders, debris = _distractors(opt, rng, seabed, lo, hi, xy)
+    boulders += _rocks(opt.rocks, rng, seabed, lo, hi, xy, first=len(boulders) + 1)
+    lines = []
+    y0, y1 = lo[1] - 10, survey_hi[1] + 10
+    n_lines = int(math.ceil((y1 - y0) / opt.line_spacing)) + 1
+    for k in range(n_lines):
+        y = y0 + k * opt.line_spacing
+        xs = (lo[0] - 15, hi[0] + 15) if k % 2 == 0 else (hi[0] + 15, lo[0] - 15)
+        lines.append(Line(((xs[0], y), (xs[1], y)), ping_spacing=opt.ping_spacing))
+    scene = Scene(seabed, reefs=tuple(reefs), boulders=tuple(boulders), debris=tuple(debris),
+                  origin=(opt.origin_x, opt.origin_y))
+    return scene, Survey(tuple(lines), sonar), {}
 
-    def make(rid: int, kind: str, x: float, y: float, b: float, g: int) -> Reef:
-        z = float(seabed.elevation(x, y)) - 0.1 - float(sunk[rid % len(sunk)])
-        return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, opt.reef_scale), group=g)
 
+def _make_reef(seabed: Seabed, sunk: np.ndarray, scale: float, rid: int, kind: str, x: float, y: float,
+               b: float, g: int) -> Reef:
+    """A reef standing on the seabed at (x, y), sunk 0.1 m and its own further burial."""
+    z = float(seabed.elevation(x, y)) - 0.1 - float(sunk[rid % len(sunk)])
+    return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, scale), group=g)
+
+
+def _place_groups(kinds: list[str], cols: int, rows: int, opt: ReefFieldOptions, rng: np.random.Generator,
+                  make: Callable[..., Reef]) -> list[Reef]:
+    """Each group's reefs on a square grid, jittered, kept 1.2 m apart."""
+    side = int(math.ceil(math.sqrt(opt.per_group)))
+    reefs: list[Reef] = []
     for g, kind in enumerate(kinds):
         gx = (g % cols - (cols - 1) / 2) * opt.group_spacing
         gy = ((rows - 1) / 2 - g // cols) * opt.group_spacing
@@ -135,7 +183,12 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
                        if math.hypot(r.x - x, r.y - y) < 8):
                     break
             reefs.append(cand)
-    # bring chosen neighbour pairs close together or into contact
+    return reefs
+
+
+def _bring_together(reefs: list[Reef], opt: ReefFieldOptions, rng: np.random.Generator,
+                    make: Callable[..., Reef]) -> None:
+    """Chosen neighbour pairs brought close together (0.3-0.9 m) or into contact, in place."""
     targets = [(rng.uniform(0.3, 0.9)) for _ in range(opt.close_pairs)]
     targets += [0.0] * opt.touching_pairs
     moved: set[int] = set()
@@ -151,35 +204,37 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
             if not near:
                 continue
             j = min(near, key=lambda j: math.hypot(reefs[j].x - a.x, reefs[j].y - a.y))
-            b = reefs[j]
-            v = np.array([a.x - b.x, a.y - b.y])
-            dist = float(np.hypot(*v))
-            v /= dist
-
-            def at(s: float, b: Reef = b, v: np.ndarray = v) -> Reef:
-                return make(b.id, b.kind, b.x + s * v[0], b.y + s * v[1], b.bearing_deg, b.group)
-
-            lo, hi = 0.0, dist
-            for _ in range(40):
-                mid = (lo + hi) / 2
-                if reef_gap(a, at(mid)) > target:
-                    lo = mid
-                else:
-                    hi = mid
-            new = at(lo if target > 0 else hi)
+            new = _moved_to_gap(a, reefs[j], target, make)
             others = [r for k2, r in enumerate(reefs) if k2 not in (i, j)
                       and math.hypot(r.x - new.x, r.y - new.y) < 8]
             if all(reef_gap(new, r) > 1.0 for r in others):
                 reefs[j] = new
                 moved.update((i, j))
                 break
-    xy = np.array([[r.x, r.y] for r in reefs])
-    lo, hi = xy.min(axis=0) - 12, xy.max(axis=0) + 12
-    if opt.shore_width > 0:
-        seabed = dataclasses.replace(seabed, shore_start=float(hi[1]) + 3.0,
-                                     shore_width=opt.shore_width)
-        reefs = [make(r.id, r.kind, r.x, r.y, r.bearing_deg, r.group) for r in reefs]
-    survey_hi = hi + np.array([0.0, opt.shore_width])
+
+
+def _moved_to_gap(a: Reef, b: Reef, target: float, make: Callable[..., Reef]) -> Reef:
+    """``b`` moved toward ``a`` until the gap between them is ``target`` (0: touching)."""
+    v = np.array([a.x - b.x, a.y - b.y])
+    dist = float(np.hypot(*v))
+    v /= dist
+
+    def at(s: float) -> Reef:
+        return make(b.id, b.kind, b.x + s * v[0], b.y + s * v[1], b.bearing_deg, b.group)
+
+    lo, hi = 0.0, dist
+    for _ in range(40):
+        mid = (lo + hi) / 2
+        if reef_gap(a, at(mid)) > target:
+            lo = mid
+        else:
+            hi = mid
+    return at(lo if target > 0 else hi)
+
+
+def _distractors(opt: ReefFieldOptions, rng: np.random.Generator, seabed: Seabed, lo: np.ndarray,
+                 hi: np.ndarray, xy: np.ndarray) -> tuple[list[Boulder], list[Box]]:
+    """Boulders and debris among the reefs, 4.5 m or more from every reef centre."""
     boulders: list[Boulder] = []
     debris: list[Box] = []
     for n_items, is_boulder in ((opt.boulders, True), (opt.debris, False)):
@@ -196,17 +251,7 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
                 debris.append(Box(p[0], p[1], z - 0.05, rng.uniform(0.5, 1.2),
                                   rng.uniform(0.3, 0.6), rng.uniform(0.2, 0.5),
                                   rng.uniform(0, 180)))
-    boulders += _rocks(opt.rocks, rng, seabed, lo, hi, xy, first=len(boulders) + 1)
-    lines = []
-    y0, y1 = lo[1] - 10, survey_hi[1] + 10
-    n_lines = int(math.ceil((y1 - y0) / opt.line_spacing)) + 1
-    for k in range(n_lines):
-        y = y0 + k * opt.line_spacing
-        xs = (lo[0] - 15, hi[0] + 15) if k % 2 == 0 else (hi[0] + 15, lo[0] - 15)
-        lines.append(Line(((xs[0], y), (xs[1], y)), ping_spacing=opt.ping_spacing))
-    scene = Scene(seabed, reefs=tuple(reefs), boulders=tuple(boulders), debris=tuple(debris),
-                  origin=(opt.origin_x, opt.origin_y))
-    return scene, Survey(tuple(lines), sonar), {}
+    return boulders, debris
 
 
 def _rocks(n: int, rng: np.random.Generator, seabed: Seabed, lo: np.ndarray, hi: np.ndarray,

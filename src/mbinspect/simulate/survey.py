@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,11 +45,44 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         Which pile (1-based), reef id, boulder or debris item it hit (0 = none).
     """
     sonar = plan.sonar
-    ns = sonar.noise_scale
-    if ns < 0:
-        raise ParameterError(f"noise_scale: {ns} is negative; expected >= 0")
+    if sonar.noise_scale < 0:
+        raise ParameterError(f"noise_scale: {sonar.noise_scale} is negative; expected >= 0")
     rng = np.random.default_rng(seed)
     beams = sonar.beam_angles()
+    track = _track(plan)
+    err = _errors(sonar, track, len(plan.lines), beams, rng, seed)
+    all_targets = targets(scene)
+    parts = []
+    n_ping = len(track.pos)
+    batch = max(1, 400_000 // len(beams))
+    for start in range(0, n_ping, batch):
+        sl = slice(start, min(start + batch, n_ping))
+        parts.append(_sound(scene, sonar, track, err, beams, sl, rng, all_targets))
+        if progress is not None:
+            progress(sl.stop / n_ping)
+    xyz, intensity, angle, line, ping, label, ident = (np.concatenate(c) for c in zip(*parts, strict=True))
+    xyz[:, 0] += scene.origin[0]
+    xyz[:, 1] += scene.origin[1]
+    cloud = PointCloud(xyz, {"intensity": intensity, "beam_angle": angle, "line": line, "ping": ping})
+    return cloud, label, ident
+
+
+@dataclass(frozen=True)
+class _Track:
+    """Every ping of every line: position, heading, time, line (1-based) and the vessel's
+    motion (known and compensated: it only steers where the beams go)."""
+
+    pos: np.ndarray
+    head: np.ndarray
+    time: np.ndarray
+    line_id: np.ndarray
+    roll: np.ndarray
+    pitch: np.ndarray
+    heave: np.ndarray
+
+
+def _track(plan: Survey) -> _Track:
+    sonar = plan.sonar
     pos_l, head_l, dist_l, line_l = [], [], [], []
     for k, line in enumerate(plan.lines):
         pos, head, s = line.pings()
@@ -56,23 +90,40 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         head_l.append(head)
         dist_l.append(s / line.speed)
         line_l.append(np.full(len(pos), k + 1, dtype=np.int32))
-    pos = np.concatenate(pos_l)
-    head = np.concatenate(head_l)
     time = np.concatenate(dist_l)
-    line_id = np.concatenate(line_l)
-    n_ping = len(pos)
-    # vessel motion (known and compensated: it only steers where the beams go)
     roll = math.radians(sonar.roll_amplitude_deg) * np.sin(2 * np.pi * time / 7.0 + 0.3)
     pitch = math.radians(sonar.pitch_amplitude_deg) * np.sin(2 * np.pi * time / 5.0 + 1.1)
     heave = sonar.heave_amplitude * np.sin(2 * np.pi * time / 6.0)
-    # per-ping errors
+    return _Track(np.concatenate(pos_l), np.concatenate(head_l), time, np.concatenate(line_l), roll, pitch,
+                  heave)
+
+
+@dataclass(frozen=True)
+class _Errors:
+    """The errors drawn once: per ping (position, roll) and per line (height offset,
+    sound-speed smile, beam biases, backscatter gain and angular fall), and the growth of
+    the range noise with the beam angle."""
+
+    dpos: np.ndarray
+    droll: np.ndarray
+    line_dz: np.ndarray
+    line_refr: np.ndarray
+    beam_bias: np.ndarray
+    bs_gain: np.ndarray
+    bs_fall: np.ndarray
+    growth: np.ndarray
+
+
+def _errors(sonar: Sonar, track: _Track, n_lines: int, beams: np.ndarray, rng: np.random.Generator,
+            seed: int | None) -> _Errors:
+    ns = sonar.noise_scale
+    n_ping = len(track.pos)
     dpos = rng.normal(0.0, 1.0, (n_ping, 3)) * (
         np.array([sonar.position_sigma, sonar.position_sigma, sonar.vertical_sigma]) * ns
     )
     droll = rng.normal(0.0, math.radians(sonar.attitude_sigma_deg) * ns, n_ping)
     # per-line errors, from their own stream so that a model without them draws as before
     lrng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
-    n_lines = len(plan.lines)
     line_dz = lrng.normal(0.0, sonar.line_offset_sigma * ns, n_lines)
     line_refr = math.radians(sonar.refraction_bias_deg) + lrng.normal(
         0.0, math.radians(sonar.refraction_sigma_deg) * ns, n_lines)
@@ -80,84 +131,80 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
     bs_gain = lrng.normal(0.0, sonar.bs_line_sigma_db, n_lines)
     bs_fall = sonar.bs_angle_db * lrng.uniform(0.5, 1.5, n_lines)
     growth = 1.0 + sonar.range_angle_growth * np.abs(np.sin(beams)) / math.sin(math.radians(60.0))
-    all_targets = targets(scene)
-    out_xyz, out_int, out_ang, out_line, out_ping, out_lab, out_id = [], [], [], [], [], [], []
-    batch = max(1, 400_000 // len(beams))
-    for start in range(0, n_ping, batch):
-        sl = slice(start, min(start + batch, n_ping))
-        m = sl.stop - sl.start
-        hd = head[sl]
-        along = np.column_stack([hd, np.zeros(m)])
-        across = np.column_stack([hd[:, 1], -hd[:, 0], np.zeros(m)])  # starboard
-        down = np.array([0.0, 0.0, -1.0])
-        theta = beams[None, :] + roll[sl, None]  # (m, B)
-        dirs = (np.cos(theta)[..., None] * down + np.sin(theta)[..., None] * across[:, None, :]
-                + np.sin(pitch[sl])[:, None, None] * along[:, None, :])
-        dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
-        orig = np.column_stack([pos[sl], -sonar.draft + heave[sl]])
-        o = np.repeat(orig, len(beams), axis=0)
-        d = dirs.reshape(-1, 3)
-        near = _within(all_targets, orig, scene.seabed, sonar)
-        t, label, ident, normal, materials = cast(scene, near, o, d)
-        pi = np.repeat(np.arange(sl.start, sl.stop), len(beams))
-        li = line_id[pi] - 1
-        bi = np.tile(np.arange(len(beams)), m)
-        beam = beams[bi]
-        # detection: grazing incidences return nothing
-        cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
-        keep = rng.random(len(t)) < np.clip((cos_inc - 0.03) / 0.12, 0.0, 1.0)
-        # measurement errors: range and pointing, growing with range and angle
-        sig_r = (sonar.range_sigma + sonar.range_sigma_rel * t) * ns * growth[bi]
-        sig_a = math.radians(sonar.angle_sigma_deg) * ns / np.cos(beam)
-        bias = line_refr[li] * (beam / beams.max()) ** 2 * np.sign(beam)
-        dang = heavy_noise(rng, len(t), sonar.tail_dof) * sig_a + droll[pi] + bias
-        rng_meas = t + heavy_noise(rng, len(t), sonar.tail_dof) * sig_r + beam_bias[li, bi]
-        # derivative of the beam direction with respect to its angle (in the swath plane)
-        th = theta.reshape(-1)
-        dtheta = (-np.sin(th)[:, None] * down
-                  + np.cos(th)[:, None] * np.repeat(across, len(beams), axis=0))
-        xyz = o + rng_meas[:, None] * d + (t * dang)[:, None] * dtheta + dpos[pi]
-        xyz[:, 2] += line_dz[li]
-        # outliers
-        u = rng.random(len(t))
-        spike = u < sonar.spike_rate * ns
-        wcol = (u >= sonar.spike_rate * ns) & (u < (sonar.spike_rate + sonar.water_column_rate) * ns)
-        xyz[spike] = o[spike] + (t[spike] + rng.uniform(1.0, 6.0, spike.sum()))[:, None] * d[spike]
-        xyz[wcol] = o[wcol] + (t[wcol] * rng.uniform(0.15, 0.9, wcol.sum()))[:, None] * d[wcol]
-        label = np.where(spike | wcol, LABELS["outlier"], label).astype(np.int8)
-        ident = np.where(spike | wcol, 0, ident)
-        # backscatter (dB): material, Lambert, specular peak, speckle
-        mat_bs = np.array([MATERIAL_BS[mm] for mm in materials])
-        inc = np.arccos(cos_inc)
-        bs = (mat_bs[_material_of(label, ident, scene, materials)]
-              + 10 * np.log10(np.maximum(cos_inc**2, 1e-3))
-              + 8.0 * np.exp(-((inc / math.radians(8.0)) ** 2))
-              + rng.normal(0.0, sonar.speckle_db, len(t))
-              + bs_gain[li] - bs_fall[li] * np.abs(beam) / beams.max())
-        bs = np.where(label == LABELS["outlier"], rng.normal(-45.0, 5.0, len(t)), bs)
-        keep &= np.isfinite(t)
-        out_xyz.append(xyz[keep])
-        out_int.append(np.round(bs[keep] + 100.0, 1))
-        out_ang.append(np.round(np.degrees(beam[keep]), 3))
-        out_line.append(line_id[pi][keep])
-        out_ping.append(pi[keep].astype(np.int32) + 1)
-        out_lab.append(label[keep])
-        out_id.append(ident[keep])
-        if progress is not None:
-            progress(sl.stop / n_ping)
-    xyz = np.concatenate(out_xyz)
-    xyz[:, 0] += scene.origin[0]
-    xyz[:, 1] += scene.origin[1]
-    cloud = PointCloud(
-        xyz,
-        {
-            "intensity": np.concatenate(out_int),
-            "beam_angle": np.concatenate(out_ang),
-            "line": np.concatenate(out_line),
-            "ping": np.concatenate(out_ping),
-        },
-    )
-    return cloud, np.concatenate(out_lab), np.concatenate(out_id)
+    return _Errors(dpos, droll, line_dz, line_refr, beam_bias, bs_gain, bs_fall, growth)
+
+
+def _sound(scene: Scene, sonar: Sonar, track: _Track, err: _Errors, beams: np.ndarray, sl: slice,
+           rng: np.random.Generator, all_targets: list[Target]) -> tuple[np.ndarray, ...]:
+    """One batch of pings cast, measured with their errors and outliers, and given their
+    backscatter: the kept soundings' xyz, intensity, beam angle, line, ping, label, ident."""
+    ns = sonar.noise_scale
+    m = sl.stop - sl.start
+    hd = track.head[sl]
+    along = np.column_stack([hd, np.zeros(m)])
+    across = np.column_stack([hd[:, 1], -hd[:, 0], np.zeros(m)])  # starboard
+    down = np.array([0.0, 0.0, -1.0])
+    theta = beams[None, :] + track.roll[sl, None]  # (m, B)
+    dirs = (np.cos(theta)[..., None] * down + np.sin(theta)[..., None] * across[:, None, :]
+            + np.sin(track.pitch[sl])[:, None, None] * along[:, None, :])
+    dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
+    orig = np.column_stack([track.pos[sl], -sonar.draft + track.heave[sl]])
+    o = np.repeat(orig, len(beams), axis=0)
+    d = dirs.reshape(-1, 3)
+    near = _within(all_targets, orig, scene.seabed, sonar)
+    t, label, ident, normal, materials = cast(scene, near, o, d)
+    pi = np.repeat(np.arange(sl.start, sl.stop), len(beams))
+    li = track.line_id[pi] - 1
+    bi = np.tile(np.arange(len(beams)), m)
+    beam = beams[bi]
+    # detection: grazing incidences return nothing
+    cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
+    keep = rng.random(len(t)) < np.clip((cos_inc - 0.03) / 0.12, 0.0, 1.0)
+    # measurement errors: range and pointing, growing with range and angle
+    sig_r = (sonar.range_sigma + sonar.range_sigma_rel * t) * ns * err.growth[bi]
+    sig_a = math.radians(sonar.angle_sigma_deg) * ns / np.cos(beam)
+    bias = err.line_refr[li] * (beam / beams.max()) ** 2 * np.sign(beam)
+    dang = heavy_noise(rng, len(t), sonar.tail_dof) * sig_a + err.droll[pi] + bias
+    rng_meas = t + heavy_noise(rng, len(t), sonar.tail_dof) * sig_r + err.beam_bias[li, bi]
+    # derivative of the beam direction with respect to its angle (in the swath plane)
+    th = theta.reshape(-1)
+    dtheta = (-np.sin(th)[:, None] * down + np.cos(th)[:, None] * np.repeat(across, len(beams), axis=0))
+    xyz = o + rng_meas[:, None] * d + (t * dang)[:, None] * dtheta + err.dpos[pi]
+    xyz[:, 2] += err.line_dz[li]
+    xyz, label, ident = _outliers(xyz, label, ident, o, d, t, sonar, rng)
+    bs = _backscatter(label, ident, scene, materials, cos_inc, beam, beams, li, err, sonar, rng)
+    keep &= np.isfinite(t)
+    return (xyz[keep], np.round(bs[keep] + 100.0, 1), np.round(np.degrees(beam[keep]), 3),
+            track.line_id[pi][keep], pi[keep].astype(np.int32) + 1, label[keep], ident[keep])
+
+
+def _outliers(xyz: np.ndarray, label: np.ndarray, ident: np.ndarray, o: np.ndarray, d: np.ndarray,
+              t: np.ndarray, sonar: Sonar, rng: np.random.Generator
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Multipath spikes (long ranges) and water-column returns (short ranges)."""
+    ns = sonar.noise_scale
+    u = rng.random(len(t))
+    spike = u < sonar.spike_rate * ns
+    wcol = (u >= sonar.spike_rate * ns) & (u < (sonar.spike_rate + sonar.water_column_rate) * ns)
+    xyz[spike] = o[spike] + (t[spike] + rng.uniform(1.0, 6.0, spike.sum()))[:, None] * d[spike]
+    xyz[wcol] = o[wcol] + (t[wcol] * rng.uniform(0.15, 0.9, wcol.sum()))[:, None] * d[wcol]
+    label = np.where(spike | wcol, LABELS["outlier"], label).astype(np.int8)
+    return xyz, label, np.where(spike | wcol, 0, ident)
+
+
+def _backscatter(label: np.ndarray, ident: np.ndarray, scene: Scene, materials: list[str],
+                 cos_inc: np.ndarray, beam: np.ndarray, beams: np.ndarray, li: np.ndarray, err: _Errors,
+                 sonar: Sonar, rng: np.random.Generator) -> np.ndarray:
+    """Backscatter (dB): material, Lambert, specular peak, speckle, the line's gain and
+    angular fall; outliers weak."""
+    mat_bs = np.array([MATERIAL_BS[mm] for mm in materials])
+    inc = np.arccos(cos_inc)
+    bs = (mat_bs[_material_of(label, ident, scene, materials)]
+          + 10 * np.log10(np.maximum(cos_inc**2, 1e-3))
+          + 8.0 * np.exp(-((inc / math.radians(8.0)) ** 2))
+          + rng.normal(0.0, sonar.speckle_db, len(label))
+          + err.bs_gain[li] - err.bs_fall[li] * np.abs(beam) / beams.max())
+    return np.where(label == LABELS["outlier"], rng.normal(-45.0, 5.0, len(label)), bs)
 
 
 def _within(targets: list[Target], origins: np.ndarray, seabed: Seabed, sonar: Sonar) -> list[Target]:
