@@ -193,13 +193,9 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
 
     cyl, cov, inl = refit(cyl0 if radius_mode != "fixed" else Cylinder(cyl0.point, cyl0.axis, radius),
                           None if radius_mode != "fixed" else radius)
-    if radius_mode == "auto":
-        # keep the prior unless the data reject it: a free radius costs precision
-        r_sigma = math.sqrt(max(float(cov[4, 4]), 0.0)) if cov.shape[0] > 4 else math.inf
-        rejected = abs(cyl.radius - radius) > max(3 * r_sigma, 0.005)
-        if (side_coverage(cyl, ls[inl]) < min_free_coverage_deg or not r_sigma <= max_free_sigma
-                or not rejected):
-            cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
+    if radius_mode == "auto" and _keeps_prior(cyl, cov, ls[inl], radius, min_free_coverage_deg,
+                                              max_free_sigma):
+        cyl, cov, inl = refit(Cylinder(cyl.point, cyl.axis, radius), radius)
     notes = [] if sounded else [f"top not sounded ({len(t)} top points): the centre is where the axis "
                                 "reaches the highest soundings, the top stands at least that high"]
     plumb = _held_plumb(cyl, cov, refit, ls, z_top, max_tilt_deg,
@@ -219,6 +215,16 @@ def intersection_method(side: np.ndarray, side_normals: np.ndarray, top: np.ndar
     out_plane = Plane(plane.point + shift, plane.normal)
     top_in = np.abs(plane.residuals(t - shift)) <= threshold / 2
     return out_cyl, out_plane, centre + shift, inl, top_in, cov, notes, held
+
+
+def _keeps_prior(cyl: Cylinder, cov: np.ndarray, inliers: np.ndarray, radius: float, min_coverage_deg: float,
+                 max_sigma: float) -> bool:
+    """Whether the prior radius stands against the free fit: a free radius costs precision,
+    so the prior is kept unless the data reject it, seen over enough of the side and known
+    well enough."""
+    r_sigma = math.sqrt(max(float(cov[4, 4]), 0.0)) if cov.shape[0] > 4 else math.inf
+    rejected = abs(cyl.radius - radius) > max(3 * r_sigma, 0.005)
+    return side_coverage(cyl, inliers) < min_coverage_deg or not r_sigma <= max_sigma or not rejected
 
 
 def _top_plane(ls: np.ndarray, lt: np.ndarray, sounded: bool, *, threshold: float, seed: int,

@@ -175,10 +175,16 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
             eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
         return _Judged(segs, seg_info, fits, iterations, unmeasured, *_standing(piles, seabed, o))
 
-    j = judged(opts)
-    # the joint radius of the candidates that stand as piles (a wall's radius is no pile's),
-    # every side counting by its own sigma: on a line that sees each pile over 30-60 deg
-    # only, those loose radii together still catch a prior 5 cm off (ets_all_a_y)
+    j, joint = _with_joint_radius(judged, judged(opts), opts, warnings)
+    return _measured(j, thr, cloud, seabed, joint, warnings)
+
+
+def _with_joint_radius(judged: Callable[..., _Judged], j: _Judged, opts: PileOptions, warnings: list[str]
+                       ) -> tuple[_Judged, Any]:
+    """The candidates judged again with the joint radius of those that stand as piles (a
+    wall's radius is no pile's), every side counting by its own sigma: on a line that sees
+    each pile over 30-60 deg only, those loose radii together still catch a prior 5 cm off
+    (ets_all_a_y)."""
     joint = joint_radius({old: j.fits[old] for old in j.kept.values()}, opts.radius,
                          min_coverage_deg=0.0) if opts.radius_mode == "auto" else None
     if joint is not None and joint.rejects_prior:
@@ -189,7 +195,7 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     elif joint is not None:
         # the prior stands, known as well as the data know the radius, or as far off as they put it
         j = judged(opts, j[:5], radius_sigma=max(joint.sigma, abs(joint.radius - joint.prior)))
-    return _measured(j, thr, cloud, seabed, joint, warnings)
+    return j, joint
 
 
 def _measured(j: _Judged, thr: dict[int, Any], cloud: PointCloud, seabed: Any, joint: Any,
