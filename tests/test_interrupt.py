@@ -21,7 +21,8 @@ import pytest
 
 from mbinspect.cli import main
 
-pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="signals and /proc as on Linux")
+pytestmark = [pytest.mark.skipif(sys.platform != "linux", reason="signals and /proc as on Linux"),
+              pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")

@@ -153,6 +153,7 @@ def _border_tile_size(result) -> float:
     raise AssertionError("no tile size puts a reef across a border")
 
 
+@pytest.mark.slow
 def test_tiled_on_two_local_workers_gives_the_in_memory_result(reef_lines, in_memory) -> None:
     folder, _ = reef_lines
     size = _border_tile_size(in_memory.result)
@@ -165,6 +166,7 @@ def test_tiled_on_two_local_workers_gives_the_in_memory_result(reef_lines, in_me
     assert any(_straddles(r, size) for r in tiled.result.reefs)
 
 
+@pytest.mark.slow
 def test_a_killed_worker_is_replaced_and_the_result_does_not_change(reef_lines, in_memory, tmp_path) -> None:
     folder, _ = reef_lines
     marker = tmp_path / "killed"
@@ -187,6 +189,7 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+@pytest.mark.slow
 def test_cli_runs_on_a_real_scheduler_on_loopback(reef_lines, in_memory, tmp_path) -> None:
     folder, _ = reef_lines
     port = _free_port()
@@ -282,6 +285,7 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform != "linux", reason="signals and /proc as on Linux")
 def test_ctrl_c_stops_the_cluster_and_leaves_nothing(reef_lines, tmp_path) -> None:
     import shutil
