@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1] / "src" / "mbinspect"
 LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (0, ("errors", "version", "checks", "outputs", "options", "grid", "strays", "geometry", "cloud",
          "interrupt")),
-    (1, ("formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
+    (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
          "pipeline")),
     (2, ("seabed", "filters", "segment")),
     (3, ("piles", "reefs", "simulate", "report")),

@@ -93,6 +93,7 @@ def test_real_shallow_files(name, sigma_cm):
     assert med[0] > min(med[1:])
 
 
+@pytest.mark.slow
 def test_simulator_heavy_tails_option():
     """``tail_dof`` gives the simulator the heavy tails real files show, at the same robust sigma."""
     from mbinspect.simulate import simulate
@@ -149,6 +150,7 @@ def _strip_offsets(sim) -> np.ndarray:
     return np.abs(np.array(out))
 
 
+@pytest.mark.slow
 def test_named_sonars_and_strip_offsets():
     """The shallow sonar (the default) has the real files' growth with angle and tails; its
     lines disagree in height as real strips do, the classic sonar's do not."""

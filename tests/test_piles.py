@@ -55,6 +55,7 @@ def test_intersection_method_reaches_a_centimetre(jacket_small):
     assert all(abs(e) < 4 * s.sigma for e, s in zip(spacing, result.spacings, strict=True))
 
 
+@pytest.mark.slow
 def test_same_seed_same_answer(jacket_small):
     a = locate_piles(jacket_small.cloud, count=4, radius=0.75, seed=3).to_dict()
     b = locate_piles(jacket_small.cloud, count=4, radius=0.75, seed=3).to_dict()
@@ -107,6 +108,7 @@ def test_count_found_from_the_data(jacket_small):
     assert len(result.piles) == 4
 
 
+@pytest.mark.slow
 def test_wrong_radius_is_flagged_and_corrected_where_the_data_allow(jacket_small):
     truth = {p["id"]: p for p in jacket_small.truth["piles"]}
     fixed = locate_piles(jacket_small.cloud, count=4, radius=0.6, radius_mode="fixed")
@@ -203,6 +205,7 @@ def test_separation_keeps_neighbours_apart(jacket_small):
     assert not warnings
 
 
+@pytest.mark.slow
 def test_cli_piles_end_to_end(tmp_path, jacket_small, capsys):
     src = tmp_path / "s.laz"
     write(jacket_small.cloud, src)
@@ -282,6 +285,7 @@ def wharf():
     return simulate("wharf", seed=1, ping_spacing=0.16)
 
 
+@pytest.mark.slow
 def test_wharf_jackets_found_without_hints_with_battered_piles(wharf):
     truth = {p["id"]: p for p in wharf.truth["piles"]}
     result = locate_piles(wharf.cloud, radius=0.6)
@@ -302,6 +306,7 @@ def _true_piles(sim):
                          group=t["group"]) for t in sim.truth["piles"])
 
 
+@pytest.mark.slow
 def test_frame_residuals_within_their_sigma_of_the_as_built_frame(wharf, tmp_path):
     # up to 3.8 sigma (3.7 cm) on the realistic sonar with one backscatter threshold for
     # the whole cloud; each pile's own threshold brought it to 2.5 sigma (seeds 1-3)
@@ -320,6 +325,7 @@ def test_frame_residuals_within_their_sigma_of_the_as_built_frame(wharf, tmp_pat
             assert off < 3 * got["sigma"]
 
 
+@pytest.mark.slow
 def test_frame_fit_and_decisions_at_95_percent(wharf, tmp_path, capsys):
     from mbinspect.piles import fit_frames, read_design
 
@@ -357,6 +363,7 @@ def test_frame_fit_and_decisions_at_95_percent(wharf, tmp_path, capsys):
     assert [f["group"] for f in saved["frames"]] == [1, 2, 3]
 
 
+@pytest.mark.slow
 def test_the_report_a_client_accepts(wharf, tmp_path):
     import html.parser
 
@@ -407,6 +414,7 @@ def test_the_report_a_client_accepts(wharf, tmp_path):
     assert parts.images >= 3 + 1 + 12  # per-jacket plans, the overview, each pile
 
 
+@pytest.mark.slow
 def test_a_design_drawn_in_a_local_frame_is_matched_jacket_by_jacket(wharf):
     site = wharf.truth["design"]
     local_pos, groups = {}, {}
@@ -469,6 +477,7 @@ def test_rejection_reasons_for_what_cannot_stand():
     assert rejection_reasons(replace(patch, top_coverage=0.9), 1.2, opts) == []  # a top seen whole
 
 
+@pytest.mark.slow
 def test_sigma_covers_errors_each_line_shares():
     """A sound-speed error drawn per line (0.15 deg at the outer beam) shifts every sounding of
     a line alike, which averaging cannot remove: the model sigma alone leaves spacing errors

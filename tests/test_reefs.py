@@ -249,6 +249,7 @@ def test_cli_reefs_end_to_end(tmp_path, reef_small, capsys):
     assert "--min-height: -1.0; expected a positive finite number" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_shifted_survey_gives_the_same_reefs_and_numbers(reef_small):
     """Results and reef numbers do not depend on where the origin is (1 km and 500 km away)."""
     from mbinspect.io import PointCloud
@@ -265,6 +266,7 @@ def test_a_shifted_survey_gives_the_same_reefs_and_numbers(reef_small):
             assert abs(b.area - a.area) < 1e-3 and abs(b.height - a.height) < 1e-3
 
 
+@pytest.mark.slow
 def test_fields_kilometres_apart_are_measured_apart_with_the_same_answer(reef_small, monkeypatch):
     """Two copies of a field 3 km apart (strips of one survey, say): each reef as in its
     field alone, and no footprint raster spans the gap between them."""
@@ -316,6 +318,7 @@ def test_a_filter_that_removes_most_soundings_says_so_and_what_to_give(capsys, t
     assert "--noise-radius 1.4" in err and "keeps 99 %" in err
 
 
+@pytest.mark.slow
 def test_a_half_metre_gridded_export_keeps_its_reefs():
     """The issue's 0.5 m gridded export, wiped out by the fixed filter: every reef found."""
     sim = simulate("reef-field", seed=2, per_group=9, close_pairs=0)

@@ -83,10 +83,13 @@ def test_unplaceable_truncated_and_crs_errors(tmp_path, capsys):
     cut.write_bytes(data[: len(data) // 2])
     with pytest.raises(InputError, match=r"cut.kmall, byte \d+: a record of \d+ bytes"):
         read(cut)
-    with pytest.raises(ParameterError, match="crs: 'EPSG:4326'; expected a projected CRS in metres"):
+    with pytest.raises(ParameterError, match="crs: 'EPSG:4326' .WGS 84. is geographic; expected a projected"):
         read(DATA / "Belgica_0077.all", crs="EPSG:4326")
-    moved = read(DATA / "Belgica_0077.all", crs="EPSG:32632")  # the next zone east
-    assert "zone 32N" in moved.meta["crs_name"]
+    moved = read(DATA / "Belgica_0077.all", crs="EPSG:25831")  # ETRS89 / UTM 31N
+    assert "ETRS89 / UTM zone 31N" in moved.meta["crs_name"]
+    # the next zone east stretches distances here by 1:609 (3.6 cm on a 22 m spacing): refused
+    with pytest.raises(ParameterError, match=r"'EPSG:32632' .* distorts distances over these data by 1:609"):
+        read(DATA / "Belgica_0077.all", crs="EPSG:32632")
     assert main(["info", str(DATA / "GSF3_09_test_file.gsf")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("mbinspect: error: ") and "not georeferenceable" in err and err.count("\n") == 1
@@ -125,6 +128,7 @@ def test_the_crs_reaches_every_output(tmp_path, capsys):
     capsys.readouterr()
 
 
+@pytest.mark.slow
 def test_piles_geojson_is_longitude_latitude_with_a_crs(tmp_path, jacket_small):
     import json
 

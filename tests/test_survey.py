@@ -241,6 +241,7 @@ def test_cli_runs_on_a_real_scheduler_on_loopback(reef_lines, in_memory, tmp_pat
             p.wait(timeout=20)
 
 
+@pytest.mark.slow
 def test_tiled_piles_are_the_in_memory_piles(tmp_path: Path) -> None:
     truth = simulate_lines("jacket", tmp_path, seed=3, ping_spacing=0.5)
     files = expand_inputs([tmp_path / "*.laz"])

@@ -20,6 +20,7 @@ Examples
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -27,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .cloud import PointCloud, crs_name, pipeline_input
+from .crs import to_metres
 from .describe import CloudSummary, describe
 from .errors import FileAccessError, InputError, InputWarning, ParameterError
 from .formats import FORMAT_NAMES, FORMATS, SONAR_FORMATS, ReadRequest, format_from_path
@@ -48,6 +50,7 @@ __all__ = [
     "CloudSummary",
     "crs_name",
     "describe",
+    "in_metres",
 ]
 
 
@@ -191,9 +194,7 @@ def read(
         xyz = cloud.xyz.copy()
         xyz[:, 2] *= -1.0
         cloud = replace(cloud, xyz=xyz, z_convention="depth")
-    if crs is not None:
-        cloud = _declare_crs(cloud, crs)
-    return cloud
+    return in_metres(cloud, crs)
 
 
 
@@ -202,32 +203,24 @@ def read(
 
 
 
-def _declare_crs(cloud: PointCloud, crs: str) -> PointCloud:
-    """The cloud with ``crs`` as the CRS of its coordinates (checked by pyproj)."""
-    from pyproj import CRS
-    from pyproj.exceptions import CRSError
+def in_metres(cloud: PointCloud, crs: str | None = None) -> PointCloud:
+    """The cloud in a projected metre CRS (:func:`mbinspect.crs.to_metres`), each
+    conversion said in one warning.
 
-    try:
-        given = CRS.from_user_input(crs)
-    except CRSError:
-        raise ParameterError(f"crs: {crs!r}; expected a CRS such as EPSG:32631", option="crs") from None
-    if cloud.crs is not None and not CRS.from_user_input(cloud.crs).equals(given):
-        raise ParameterError(f"crs: {crs!r}, but {cloud.source} says {CRS.from_user_input(cloud.crs).name}; "
-                             "expected no crs for a file that has one (reprojection is not done here)",
-                             option="crs")
-    return replace(cloud, crs=given.to_wkt())
+    Parameters
+    ----------
+    cloud : PointCloud
+    crs : str, optional
+        The CRS wanted (or, for a file that declares none, the CRS of its coordinates).
 
-
-
-
-
-
-
-
-
-
-
-
+    Returns
+    -------
+    PointCloud
+    """
+    out, notes = to_metres(cloud, crs)
+    for note in notes:
+        warnings.warn(note, InputWarning, stacklevel=3)
+    return out
 
 
 # --------------------------------------------------------------------------- writing

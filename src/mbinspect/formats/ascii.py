@@ -11,21 +11,13 @@ from typing import Any
 import numpy as np
 
 from ..cloud import PointCloud
+from ..crs import looks_geographic, project_lonlat
 from ..errors import InputWarning, ParameterError
 from .ascii_parse import DEPTH_NAMES, ELEVATION_NAMES, read_ascii
 from .base import Format, ReadRequest
 
 __all__ = ["FORMAT"]
 
-
-
-def _looks_geographic(xyz: np.ndarray) -> bool:
-    """Longitude and latitude without a header: degree ranges spanning under a degree."""
-    if len(xyz) < 3:
-        return False
-    x, y = xyz[:, 0], xyz[:, 1]
-    return bool(np.abs(x).max() <= 180 and np.abs(y).max() <= 90 and np.ptp(x) < 1 and np.ptp(y) < 1
-                and (np.ptp(x) > 0 or np.ptp(y) > 0))
 
 
 def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str | None, decimal: str | None,
@@ -38,7 +30,8 @@ def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str 
     xyz, fields, table = read_ascii(p, columns=columns, delimiter=delimiter, decimal=decimal,
                                     progress=progress)
     meta: dict[str, Any] = {"format": "xyz", "z_name": table.z_name}
-    geographic = table.geographic or (table.header is None and columns is None and _looks_geographic(xyz))
+    geographic = table.geographic or (table.header is None and looks_geographic(xyz)) or (
+        columns is not None and looks_geographic(xyz))
     if table.z_name in DEPTH_NAMES and not (depth_positive or z_up):
         # the header says depth: still never flip silently, but say so once.
         warnings.warn(f"{p}: the header names a depth column; z is read as given, as elevation (give "
@@ -51,8 +44,6 @@ def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str 
         warnings.warn(meta["z_doubt"], InputWarning, stacklevel=3)
     out_crs = None
     if geographic:
-        from ..sonar.common import project_lonlat
-
         x, y, out_crs, name = project_lonlat(xyz[:, 0], xyz[:, 1], crs)
         why = "the header names latitude and longitude" if table.geographic else \
             "x and y lie within degree ranges spanning under a degree"

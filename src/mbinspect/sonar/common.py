@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..crs import project_lonlat, utm_crs
+from ..errors import InputError
 
 __all__ = ["Soundings", "to_cloud", "utm_crs", "offsets_to_geographic", "project_lonlat", "Datagrams"]
 
@@ -85,72 +85,6 @@ def offsets_to_geographic(lat: np.ndarray, lon: np.ndarray, heading_deg: np.ndar
     rn = _A / np.sqrt(1 - _E2 * s2)  # prime vertical
     rm = rn * (1 - _E2) / (1 - _E2 * s2)  # meridian
     return lat + np.degrees(north / rm), lon + np.degrees(east / (rn * np.cos(phi)))
-
-
-def utm_crs(lat: float, lon: float) -> str:
-    """The EPSG code of the UTM zone (WGS 84) holding a position, as ``"EPSG:326NN"``.
-
-    Parameters
-    ----------
-    lat, lon : float
-        Degrees.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> utm_crs(51.37, 3.14), utm_crs(-33.9, 151.2)
-    ('EPSG:32631', 'EPSG:32756')
-    """
-    zone = int(math.floor((lon + 180.0) / 6.0)) % 60 + 1
-    return f"EPSG:{32600 + zone if lat >= 0 else 32700 + zone}"
-
-
-def _projected(target: str) -> Any:
-    from pyproj import CRS
-    from pyproj.exceptions import CRSError
-
-    try:
-        out = CRS.from_user_input(target)
-    except CRSError:
-        raise ParameterError(f"crs: {target!r}; expected a CRS such as EPSG:32631", option="crs") from None
-    if not out.is_projected or out.axis_info[0].unit_name not in ("metre", "meter"):
-        raise ParameterError(f"crs: {target!r}; expected a projected CRS in metres", option="crs")
-    return out
-
-
-def project_lonlat(lon: np.ndarray, lat: np.ndarray, crs: str | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, str, str]:
-    """Longitudes and latitudes (WGS 84) projected to ``crs`` (default: their UTM zone).
-
-    Parameters
-    ----------
-    lon, lat : ndarray
-        Degrees.
-    crs : str, optional
-        A projected CRS in metres.
-
-    Returns
-    -------
-    x, y : ndarray
-        Metres.
-    wkt, name : str
-        The CRS used.
-
-    Examples
-    --------
-    >>> x, y, wkt, name = project_lonlat(np.array([3.0]), np.array([51.0]))
-    >>> name, round(float(x[0])), round(float(y[0]))
-    ('WGS 84 / UTM zone 31N', 500000, 5649825)
-    """
-    from pyproj import Transformer
-
-    target = crs or utm_crs(float(np.median(lat)), float(np.median(lon)))
-    out = _projected(target)
-    x, y = Transformer.from_crs("EPSG:4326", out, always_xy=True).transform(lon, lat)
-    return np.asarray(x), np.asarray(y), out.to_wkt(), out.name
 
 
 def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: bool = False) -> Any:

@@ -5,6 +5,7 @@ field at its own type), with the offsets of its blocks; the survey's block count
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,7 +17,8 @@ from ..cloud import PointCloud
 from ..errors import InputError
 from ..formats import format_of
 from ..grid import pack_cells, unpack_cells
-from ..io import read
+from ..io import in_metres, read
+from .inputs import SurveyCRS, conform
 
 __all__ = ["FileBins", "BinnedChunk", "bin_file", "block_counts", "STRAY_CELL", "ROW"]
 
@@ -58,19 +60,30 @@ class FileBins:
     meta: Mapping[str, Any] = field(default_factory=dict)
 
 
-def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any]) -> Iterator[PointCloud]:
+def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any], target: SurveyCRS | None
+            ) -> Iterator[PointCloud]:
     """A file's soundings in clouds: LAS/LAZ in chunks as read, other formats whole (one
-    survey line: memory follows the largest line file, not the survey)."""
+    survey line: memory follows the largest line file, not the survey); each in the
+    survey's CRS (``target``), LAS chunks put in metres like a whole file."""
     row = format_of(path, read_options.get("format"))
-    if row.chunks is not None:
-        yield from row.chunks(path, chunk)
-    else:
-        yield read(path, **read_options)
+    opts = dict(read_options)
+    if target is not None and row.sonar and opts.get("crs") is None:
+        opts["crs"] = target.crs
+    clouds = row.chunks(path, chunk) if row.chunks is not None else iter([read(path, **opts)])
+    for k, cloud in enumerate(clouds):
+        with warnings.catch_warnings():
+            if k:  # a conversion is said once per file, not once per chunk
+                warnings.simplefilter("ignore")
+            if row.chunks is not None:
+                cloud = in_metres(cloud, opts.get("crs"))
+            if target is not None:
+                cloud = conform(cloud, target.crs, target.first)
+        yield cloud
 
 
 def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdir: str | os.PathLike[str],
              read_options: Mapping[str, Any] | None = None, chunk: int = 2_000_000,
-             fields: Sequence[str] | None = None) -> FileBins:
+             fields: Sequence[str] | None = None, target: SurveyCRS | None = None) -> FileBins:
     """Stream one file into block-sorted chunks under ``workdir``.
 
     Parameters
@@ -89,6 +102,9 @@ def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdi
     fields : sequence of str, optional
         The fields kept beside x, y, z, file and line (default: every field): what the
         pipeline uses, so that the parts hold no bytes it never reads.
+    target : SurveyCRS, optional
+        The survey's CRS (:func:`mbinspect.survey.inputs.survey_crs`), every chunk brought
+        to it; None: the file's own.
 
     Returns
     -------
@@ -102,7 +118,7 @@ def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdi
     lo = np.full(2, np.inf)
     hi = np.full(2, -np.inf)
     meta: dict[str, Any] = {}
-    for c, cloud in enumerate(_chunks(p, chunk, opts)):
+    for c, cloud in enumerate(_chunks(p, chunk, opts, target)):
         if c == 0:
             crs, meta = cloud.crs, dict(cloud.meta)
             names = tuple(sorted(cloud.fields))

@@ -5,18 +5,22 @@ from __future__ import annotations
 
 import glob
 import os
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..cloud import PointCloud, crs_name
+from ..crs import ScaleError, projected_metres, to_metres
 from ..errors import FileAccessError, InputError
 from ..formats import EXTENSIONS, FORMATS, format_of
-from ..io import read
+from ..io import in_metres, read
 
-__all__ = ["expand_inputs", "read_survey", "survey_lines", "READ_OPTIONS"]
+__all__ = ["expand_inputs", "read_survey", "survey_lines", "survey_crs", "conform", "SurveyCRS",
+           "READ_OPTIONS"]
 
 #: The keyword arguments of :func:`mbinspect.io.read` a survey passes to every file.
 READ_OPTIONS = ("format", "columns", "depth_positive", "delimiter", "crs", "keep_rejected", "decimal", "z_up")
@@ -105,8 +109,8 @@ def read_survey(paths: Sequence[str | os.PathLike[str]], *, progress: Callable[[
     Each sounding keeps ``file`` (the index into ``meta["files"]``), ``ping`` (the file's
     own, when it has one) and ``line``: one number per file, or per line within a file
     that holds several. Fields not in every file are dropped (``meta["notes"]`` says
-    which). Sonar files are projected into the CRS of the first one (or ``crs``); files
-    whose CRS differs are refused.
+    which). Every file is brought into the CRS of the first one (or ``crs``), with a
+    warning for each reprojected; a file without a CRS beside files with one is refused.
 
     Parameters
     ----------
@@ -124,25 +128,22 @@ def read_survey(paths: Sequence[str | os.PathLike[str]], *, progress: Callable[[
     Raises
     ------
     InputError
-        A file in another CRS than the first.
+        A file without a CRS beside files with one.
     """
     files = [Path(p) for p in paths]
     if len(files) == 1:
         return read(files[0], progress=progress, **read_options)
     clouds: list[PointCloud] = []
     crs = read_options.pop("crs", None)
-    first_crs: str | None = None
+    target: str | None = crs
     for k, f in enumerate(files):
         sonar = format_of(f, read_options.get("format")).sonar
         within = None if progress is None else (lambda f, k=k: progress((k + f) / len(files)))
-        c = read(f, crs=crs if crs is not None or not sonar else first_crs, progress=within, **read_options)
+        c = _read_into(f, crs if crs is not None or not sonar else target, crs is not None, files[0],
+                       progress=within, **read_options)
         if k == 0:
-            first_crs = c.crs
-        elif not same_crs(c.crs, first_crs):
-            raise InputError(f"{f}: its CRS ({crs_name(c.crs) or 'none'}) differs from {files[0]}'s "
-                             f"({crs_name(first_crs) or 'none'}); expected every file of a survey in one CRS "
-                             "(give --crs)")
-        clouds.append(c)
+            target = c.crs
+        clouds.append(conform(c, target, files[0]))
         if progress is not None:
             progress((k + 1) / len(files))
     return join_clouds(clouds, [str(f) for f in files])
@@ -168,6 +169,95 @@ def join_clouds(clouds: Sequence[PointCloud], names: Sequence[str]) -> PointClou
     return PointCloud(np.concatenate([c.xyz for c in clouds]), fields,
                       source=f"{len(names)} files ({names[0]} ...)", crs=clouds[0].crs,
                       z_convention=clouds[0].z_convention, meta=meta)
+
+
+def _read_into(path: Path, crs: str | None, asked: bool, first: Path, **read_options: Any) -> PointCloud:
+    """A file read into the survey's CRS; one that lies where that CRS (not one the user
+    asked for) cannot hold it is refused naming both files."""
+    try:
+        return read(path, crs=crs, **read_options)
+    except ScaleError as exc:
+        if asked:
+            raise
+        raise _elsewhere(path, first, exc) from None
+
+
+def _elsewhere(path: str | os.PathLike[str], first: str | os.PathLike[str], exc: ScaleError) -> InputError:
+    how = f"1:{exc.ratio:,.0f}" if exc.ratio >= 2 else "a factor of two or more"
+    return InputError(f"{path}: lies where the CRS of {first} ({exc.name}) distorts distances by {how} "
+                      f"(its own UTM zone is {exc.utm}); expected the files of one survey in one place, or "
+                      "--crs to put them in one CRS")
+
+
+@dataclass(frozen=True)
+class SurveyCRS:
+    """The CRS every file of a survey is brought to, and the file that set it."""
+
+    crs: str | None
+    first: str
+
+
+def survey_crs(paths: Sequence[str | os.PathLike[str]], read_options: Mapping[str, Any]) -> SurveyCRS:
+    """The CRS a survey is read into: the one asked for (``crs``), else its first file's,
+    in metres (a LAS/LAZ file's first chunk, any other file whole, read to learn it).
+
+    Parameters
+    ----------
+    paths : sequence of path-like
+    read_options : mapping
+        As :func:`mbinspect.io.read` takes them.
+
+    Returns
+    -------
+    SurveyCRS
+    """
+    first = Path(paths[0])
+    opts = dict(read_options)
+    if opts.get("crs") is not None:
+        return SurveyCRS(projected_metres(opts["crs"]).to_wkt(), str(first))
+    row = format_of(first, opts.get("format"))
+    if row.chunks is not None:
+        head = next(iter(row.chunks(first, 100_000)))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # said again when the file is read
+            return SurveyCRS(to_metres(head)[0].crs, str(first))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return SurveyCRS(read(first, **opts).crs, str(first))
+
+
+def conform(cloud: PointCloud, target: str | None, first: str | os.PathLike[str]) -> PointCloud:
+    """A file of a survey in the survey's CRS (its first file's, or the one asked for):
+    reprojected, with a warning, when it has another; refused when it declares none.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+        One file (or chunk of one) as read.
+    target : str, optional
+        The survey's CRS.
+    first : path-like
+        The file that set it, for the message.
+
+    Returns
+    -------
+    PointCloud
+
+    Raises
+    ------
+    InputError
+        A file without a CRS in a survey that has one, or the other way round.
+    """
+    if same_crs(cloud.crs, target):
+        return cloud
+    if cloud.crs is None or target is None:
+        raise InputError(f"{cloud.source}: its CRS ({crs_name(cloud.crs) or 'none'}) differs from {first}'s "
+                         f"({crs_name(target) or 'none'}); expected every file of a survey in one CRS "
+                         "(give --crs)")
+    try:
+        return in_metres(cloud, target)
+    except ScaleError as exc:
+        raise _elsewhere(cloud.source or "a file", first, exc) from None
 
 
 def same_crs(a: str | None, b: str | None) -> bool:

@@ -31,7 +31,7 @@ from ..strays import stray_cells
 from ..version import __version__
 from .bins import FileBins, bin_file, block_counts
 from .cluster import Progress, dask_client, map_tasks
-from .inputs import read_survey
+from .inputs import SurveyCRS, read_survey, survey_crs
 from .tiles import TilePlan, choose_plan, load_tile, tile_slices
 
 __all__ = ["SurveyOptions", "SurveyRun", "run_survey", "run_tile", "TileTask", "TileOutcome",
@@ -166,7 +166,7 @@ def run_survey(pipeline: str | Pipeline, paths: Sequence[str | os.PathLike[str]]
         with _maybe_client(use_dask, survey) as client:
             bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
                              progress=progress, block=block, workdir=tmp, read_options=ropts,
-                             chunk=survey.chunk, fields=pipe.fields)
+                             chunk=survey.chunk, fields=pipe.fields, target=_target(files, ropts))
             plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey),
                                  pipe.grid_cell(options))
             tile_opts, notes = pipe.tile_options(options)
@@ -189,6 +189,14 @@ def run_survey(pipeline: str | Pipeline, paths: Sequence[str | os.PathLike[str]]
                       "tile_buffer": plan.reach * plan.block, "worker_peak_rss": peaks,
                       "tile_soundings": [o.n for o in outcomes],
                       "tile_seconds": [o.stats.get("seconds") for o in outcomes]})
+
+
+def _target(files: list[Path], read_options: Mapping[str, Any]) -> SurveyCRS | None:
+    """The CRS every file's chunks are brought to: needed where a survey has several files,
+    or one read in chunks (a LAS file in degrees takes one UTM zone for all its chunks)."""
+    if len(files) > 1 or format_of(files[0], read_options.get("format")).chunks is not None:
+        return survey_crs(files, read_options)
+    return None
 
 
 def _bin_one(item: tuple[str, int], **kwargs: Any) -> FileBins:
