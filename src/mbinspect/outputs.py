@@ -37,6 +37,7 @@ from .errors import FileAccessError
 
 __all__ = [
     "to_jsonable",
+    "MARKER",
     "dataclasses_asdict",
     "atomic_path",
     "check_output_dir",
@@ -185,6 +186,11 @@ def _clear_stale(target: Path) -> None:
             shutil.rmtree(p, ignore_errors=True)
 
 
+#: The file that marks a folder as an mbinspect result, which ``overwrite`` may replace (and
+#: nothing else: a user's own folder is never deleted).
+MARKER = ".mbinspect-result"
+
+
 def check_output_dir(path: str | os.PathLike[str], *, overwrite: bool = False,
                      inputs: Sequence[str | os.PathLike[str]] = ()) -> Path:
     """Check that results may be written to the folder ``path``; return it as a Path.
@@ -217,9 +223,14 @@ def check_output_dir(path: str | os.PathLike[str], *, overwrite: bool = False,
     if target.exists() and not target.is_dir():
         raise FileAccessError(f"out: {target} exists and is not a folder; expected a folder",
                               option="out")
-    if target.is_dir() and not overwrite and any(target.iterdir()):
-        raise FileAccessError(f"out: {target} exists and is not empty; expected a new or empty "
-                              "folder, or `overwrite` to replace it", option="out")
+    if target.is_dir() and any(target.iterdir()):
+        if not overwrite:
+            raise FileAccessError(f"out: {target} exists and is not empty; expected a new or empty "
+                                  "folder, or `overwrite` to replace it", option="out")
+        if not (target / MARKER).is_file():
+            raise FileAccessError(f"out: {target} holds files mbinspect did not write (no {MARKER}); "
+                                  "expected a folder of an earlier mbinspect result to replace, or a new one",
+                                  option="out")
     return target
 
 
@@ -259,6 +270,8 @@ def output_dir(path: str | os.PathLike[str], *, overwrite: bool = False,
     _UNFINISHED.add(tmp)
     try:
         yield tmp
+        (tmp / MARKER).write_text("written by mbinspect: `overwrite` may replace this folder\n",
+                                  encoding="utf-8")
         old = None
         if target.exists():
             old = target.with_name(f".{target.name}{_STAGING}{os.getpid()}.old")

@@ -17,7 +17,13 @@ class UsageError(MBInspectError):
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (raised, so ``main`` prints them like any other)."""
+    """argparse with one-line errors (raised, so ``main`` prints them like any other) and
+    options matched whole, never by a prefix (``--plan`` is not ``--plane-threshold``; a
+    new option must not change what an abbreviation meant)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")

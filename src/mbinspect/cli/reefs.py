@@ -29,6 +29,7 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     from ..outputs import output_dir
     from ..reefs import ReefOptions
     from ..report import write_reef_outputs
+    from ..report.html import number
     from .flags import given_options
 
     options = ReefOptions.from_given(given_options(args, ReefOptions))  # a bad design fails here
@@ -47,8 +48,9 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
         write_reef_outputs(result, run.points, tmp, figures=not args.no_figures)
     d = result.to_dict()
     if rep.verbosity >= 0:
+        rms = number(d["seabed"].get("residual_rms"))
         print(f"{len(d['reefs'])} reefs in {len(d['groups'])} groups, {len(d['others'])} other "
-              f"objects; seabed: {d['seabed']['method']} (residual {d['seabed']['residual_rms']:.3f} m)")
+              f"objects; seabed: {d['seabed'].get('method')} (residual {rms} m)")
         ev = d["evaluation"]
         if ev is not None:
             print(f"against {args.reference}: TP {ev['tp']}, FP {ev['fp']}, FN {ev['fn']}, "

@@ -192,11 +192,14 @@ def _parsed(chunks: list[tuple[str, int, int, AsciiTable]]) -> Iterator[Iterator
     """Each chunk parsed, in order: in worker processes when there are several chunks and
     cores. On leaving (an error, an interrupt or the end) the workers are killed at once:
     no worker outlives the read, none prints a traceback."""
+    import multiprocessing as mp
+
     workers = min(os.cpu_count() or 1, MAX_WORKERS, len(chunks))
-    if workers < 2:
+    if workers < 2 or mp.current_process().daemon:
+        # a daemonic process (a Dask worker, a pool's worker) may not start children: parse
+        # here, one chunk after another
         yield (_parse_chunk(c) for c in chunks)
         return
-    import multiprocessing as mp
 
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
     pool = ctx.Pool(workers, initializer=_worker_init)

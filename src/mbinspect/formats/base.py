@@ -58,7 +58,8 @@ class Format:
     count : callable, optional
         ``count(path) -> int``: the exact number of soundings from the header.
     chunks : callable, optional
-        ``chunks(path, n) -> iterator of PointCloud``: the file read ``n`` soundings at a time.
+        ``chunks(path, n, keep_rejected=False) -> iterator of PointCloud``: the file read
+        ``n`` soundings at a time, what the file rejects left out as a whole read does.
     fields : str
         The per-point fields kept, for the documentation.
     writes : tuple of str
@@ -75,7 +76,7 @@ class Format:
     options: tuple[str, ...] = ()
     sonar: bool = False
     count: Callable[[Path], int] | None = None
-    chunks: Callable[[Path, int], Iterator[PointCloud]] | None = None
+    chunks: Callable[..., Iterator[PointCloud]] | None = None
     fields: str = ""
     writes: tuple[str, ...] = ()
 

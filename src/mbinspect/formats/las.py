@@ -4,35 +4,43 @@ beam angle (scan angle) and every extra-bytes field."""
 from __future__ import annotations
 
 import os
+import struct
+import warnings
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..cloud import PointCloud
-from ..errors import InputError
+from ..errors import InputError, InputWarning
 from .base import Format, ReadRequest
 
-__all__ = ["FORMAT", "iter_las"]
+__all__ = ["FORMAT", "iter_las", "check_header", "rejected_left_out", "NOISE_CLASSES"]
 
 
 
-def _read_las(path: Path) -> PointCloud:
+def _read_las(path: Path, keep_rejected: bool = False) -> PointCloud:
     import laspy
 
+    check_header(path)
     try:
         las = laspy.read(path)
-    except Exception as exc:  # laspy raises many types for a broken file
-        raise InputError(f"{path}: not a readable LAS/LAZ file ({exc})") from None
+    except (KeyboardInterrupt, SystemExit, GeneratorExit):
+        raise
+    except BaseException as exc:  # laspy raises many types, lazrs a Rust panic (a BaseException)
+        raise InputError(f"{path}: not a readable LAS/LAZ file ({_reason(exc)})") from None
     if len(las.points) == 0:
         raise InputError(f"{path}: the LAS file holds no points")
-    return _las_cloud(las, las.header, path)
+    return rejected_left_out(_las_cloud(las, las.header, path), keep_rejected)
 
 
-def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000) -> Iterator[PointCloud]:
+def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000, keep_rejected: bool = False
+             ) -> Iterator[PointCloud]:
     """A LAS/LAZ file's points in clouds of at most ``chunk`` points, read as they are
-    needed: memory follows the chunk, not the file.
+    needed: memory follows the chunk, not the file. Points flagged withheld or classed noise
+    are left out (one warning counts them, once the file is read) unless ``keep_rejected``.
 
     Raises
     ------
@@ -42,15 +50,112 @@ def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000) -> Iterator[P
     import laspy
 
     p = Path(path)
+    check_header(p)
+    counts = np.zeros(3, np.int64)  # withheld, noise only, all
     try:
         with laspy.open(p) as reader:
             header = reader.header
             for points in reader.chunk_iterator(chunk):
-                yield _las_cloud(points, header, p)
-    except InputError:
+                cloud = _las_cloud(points, header, p)
+                if not keep_rejected:
+                    cloud, left = _without_rejected(cloud)
+                    counts += left
+                yield cloud
+    except (InputError, KeyboardInterrupt, SystemExit, GeneratorExit):
         raise
-    except Exception as exc:  # laspy raises many types for a broken file
-        raise InputError(f"{p}: not a readable LAS/LAZ file ({exc})") from None
+    except BaseException as exc:  # laspy raises many types, lazrs a Rust panic (a BaseException)
+        raise InputError(f"{p}: not a readable LAS/LAZ file ({_reason(exc)})") from None
+    if counts[:2].any():
+        _say_left_out(str(p), counts)
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    return text[:200]
+
+
+#: The classes LAS gives noise: 7 (low point, noise) and, from LAS 1.4, 18 (high noise).
+NOISE_CLASSES = (7, 18)
+
+
+def rejected_left_out(cloud: PointCloud, keep: bool = False) -> PointCloud:
+    """A LAS cloud without the points the file rejects (flagged withheld, classed noise),
+    counted in a warning; with ``keep`` they stay, their flags as fields.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+        As read, with ``withheld`` and ``classification`` fields where the file has them.
+    keep : bool
+        Keep them (``--keep-rejected``).
+
+    Returns
+    -------
+    PointCloud
+    """
+    if keep:
+        return cloud
+    out, counts = _without_rejected(cloud)
+    if counts[:2].any():
+        _say_left_out(cloud.source, counts)
+    return out
+
+
+def _without_rejected(cloud: PointCloud) -> tuple[PointCloud, np.ndarray]:
+    """The cloud without withheld and noise points, and their counts (withheld, noise only,
+    all points)."""
+    withheld = np.asarray(cloud.fields.get("withheld", np.zeros(len(cloud), bool)), bool)
+    cls = cloud.fields.get("classification")
+    noise = np.isin(cls, NOISE_CLASSES) if cls is not None else np.zeros(len(cloud), bool)
+    bad = withheld | noise
+    counts = np.array([withheld.sum(), (noise & ~withheld).sum(), len(cloud)], np.int64)
+    fields = {k: np.asarray(v)[~bad] for k, v in cloud.fields.items() if k != "withheld"}
+    return replace(cloud, xyz=cloud.xyz[~bad], fields=fields), counts
+
+
+def _say_left_out(source: str | None, counts: np.ndarray) -> None:
+    parts = [f"{counts[0]:,} flagged withheld"] if counts[0] else []
+    parts += [f"{counts[1]:,} classed noise (7, 18)"] if counts[1] else []
+    warnings.warn(f"{source}: {' and '.join(parts)} of {counts[2]:,} points left out (`keep_rejected` "
+                  "keeps them)", InputWarning, stacklevel=4)
+
+
+def check_header(path: Path) -> None:
+    """Refuse at once a LAS header whose counts cannot fit in the file (a header claiming a
+    billion records of a 15 KB file took minutes and gigabytes to fail in laspy).
+
+    Parameters
+    ----------
+    path : Path
+
+    Raises
+    ------
+    InputError
+        Not a LAS file, or a count, size or offset beyond the file, named.
+    """
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(375)
+    if len(head) < 227 or head[:4] != b"LASF":
+        raise InputError(f"{path}: not a LAS/LAZ file (no LASF signature in a {len(head)}-byte header)")
+    header_size, offset, n_vlr = struct.unpack_from("<HII", head, 94)
+    fmt, rec_len, legacy = struct.unpack_from("<BHI", head, 104)
+    count = legacy
+    if head[25] >= 4 and len(head) >= 255:
+        count = max(count, struct.unpack_from("<Q", head, 247)[0])
+    problems = []
+    if header_size > size or offset > size:
+        problems.append(f"its header ({header_size} bytes) or point data offset ({offset:,}) lies past "
+                        "its end")
+    elif header_size + 54 * n_vlr > offset:
+        problems.append(f"{n_vlr:,} variable-length records cannot fit in the {offset - header_size:,} bytes "
+                        "before the points")
+    compressed = bool(fmt & 0x80)
+    if not compressed and offset + count * rec_len > size:
+        problems.append(f"{count:,} points of {rec_len} bytes need {offset + count * rec_len:,} bytes")
+    if problems:
+        raise InputError(f"{path}: a LAS header that cannot fit in the file's {size:,} bytes: "
+                         f"{'; '.join(problems)}; expected counts and offsets within the file")
 
 
 def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
@@ -60,6 +165,8 @@ def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
     fields: dict[str, np.ndarray] = {}
     if "intensity" in dims and np.any(las.intensity):
         fields["intensity"] = np.asarray(las.intensity, dtype=np.float64)
+    if "withheld" in dims and np.any(las.withheld):
+        fields["withheld"] = np.asarray(las.withheld, dtype=bool)
     if "classification" in dims and np.any(las.classification):
         fields["classification"] = np.asarray(las.classification, dtype=np.int32)
     if "point_source_id" in dims and np.any(las.point_source_id):
@@ -70,7 +177,11 @@ def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
             fields["beam_angle"] = np.asarray(las[angle], dtype=np.float64) * scale
             break
     for extra in las.point_format.extra_dimension_names:
-        fields[extra] = np.asarray(las[extra])
+        values = np.asarray(las[extra])
+        if values.ndim == 2:  # an array of values per point (a colour triple): one field each
+            fields.update({f"{extra}_{k}": values[:, k] for k in range(values.shape[1])})
+        else:
+            fields[extra] = values
     if "intensity_db" in fields:  # written by us: exact float intensity
         fields["intensity"] = np.asarray(fields.pop("intensity_db"), dtype=np.float64)
     crs = None
@@ -119,7 +230,7 @@ def _write_las(cloud: PointCloud, path: Path, precision: int) -> None:
 
 
 def _read(path: Path, request: ReadRequest) -> PointCloud:
-    return _read_las(path)
+    return _read_las(path, request.keep_rejected)
 
 
 def _count(path: Path) -> int:
@@ -130,7 +241,7 @@ def _count(path: Path) -> int:
 
 
 FORMAT = Format("las", (".las", ".laz"), _read, _write_las, 30.0, aliases=("laz",), count=_count,
-                writes=(".las", ".laz"),
+                writes=(".las", ".laz"), options=("keep_rejected",),
                 chunks=iter_las,
                 fields="intensity, classification, line (point source id), beam_angle (scan angle), "
                        "any extra bytes")

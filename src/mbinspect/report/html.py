@@ -12,7 +12,30 @@ from typing import Any
 from ..outputs import to_jsonable
 
 __all__ = ["html_table", "html_page", "json_dumps", "verdict_banner", "provenance_table",
-           "parameter_table"]
+           "parameter_table", "number"]
+
+
+def number(value: Any, spec: str = ".3f") -> str:
+    """A number for a report cell: "–" where it is absent (None) or not finite.
+
+    Parameters
+    ----------
+    value : float or None
+    spec : str
+        The format specification.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> number(0.01234), number(None), number(float("nan"), ".1f")
+    ('0.012', '–', '–')
+    """
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "–"
+    return format(value, spec)
 
 
 def html_table(rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
@@ -34,8 +57,8 @@ def html_table(rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
     def fmt(v: Any) -> str:
         if v is None:
             return ""
-        if isinstance(v, bool):
-            return "pass" if v else "<b class='fail'>FAIL</b>"
+        if isinstance(v, bool):  # a setting or a property, not a verdict (verdicts are words)
+            return "yes" if v else "no"
         if isinstance(v, float):
             return "" if not math.isfinite(v) else f"{v:.{digits}f}"
         if isinstance(v, (list, tuple)):

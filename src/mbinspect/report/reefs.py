@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .gis import crs_label, crs_name, crs_of
-from .html import html_page, html_table, json_dumps, parameter_table, provenance_table, verdict_banner
+from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
 from .writers import Outputs, write_outputs
 
@@ -261,7 +261,7 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
         {"item": "groups", "value": len(d["groups"])},
         {"item": "other objects (smaller than min_area)", "value": len(d["others"])},
         {"item": "seabed model", "value": d["seabed"].get("method")},
-        {"item": "seabed residual RMS (m)", "value": f"{d['seabed'].get('residual_rms', float('nan')):.3f}"}]
+        {"item": "seabed residual RMS (m)", "value": number(d["seabed"].get("residual_rms"))}]
     sections.append(("Summary", html_table(summary, ["item", "value"])))
     if d["evaluation"] is not None:
         sections += _scoring_sections(d["evaluation"])
@@ -270,9 +270,9 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
         for n in images:
             if n.startswith("groupmap"):
                 sections.append((f"Group {n[8:]}: plan", "{img:" + n + "}"))
-    groups = [{"id": g["id"], "count": g["count"], "x": f"{g['x']:.2f}", "y": f"{g['y']:.2f}",
-               "area": f"{g['area']:.0f}", "reef_area": f"{g['reef_area']:.1f}",
-               "mean_height": f"{g['mean_height']:.2f}"} for g in d["groups"]]
+    groups = [{"id": g["id"], "count": g["count"], "x": number(g["x"], ".2f"), "y": number(g["y"], ".2f"),
+               "area": number(g["area"], ".0f"), "reef_area": number(g["reef_area"], ".1f"),
+               "mean_height": number(g["mean_height"], ".2f")} for g in d["groups"]]
     sections.append(("Groups", html_table(groups, list(_GROUP_HEAD), list(_GROUP_HEAD.values()))))
     if "groups" in images:
         sections.append(("Profiles", "{img:groups}"))
@@ -282,8 +282,9 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
     rows = [_reef_row(r) for r in d["reefs"]]
     sections.append(("Reefs", html_table(rows, list(head), list(head.values()))))
     if d["others"]:
-        others = [{"x": f"{o['x']:.2f}", "y": f"{o['y']:.2f}", "height": f"{o['height']:.2f}",
-                   "area": f"{o['area']:.2f}", "n_points": o["n_points"]} for o in d["others"]]
+        others = [{"x": number(o["x"], ".2f"), "y": number(o["y"], ".2f"),
+                   "height": number(o["height"], ".2f"), "area": number(o["area"], ".2f"),
+                   "n_points": o["n_points"]} for o in d["others"]]
         sections.append(("Other objects", html_table(others, ["x", "y", "height", "area", "n_points"],
                                                      ["easting (m)", "northing (m)", "height (m)",
                                                       "area (m²)", "soundings"])))
@@ -296,7 +297,7 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
 
 def _scoring_sections(ev: Mapping[str, Any]) -> list[tuple[str, str]]:
     """The scoring rule and the match table."""
-    matches = [{"reference": m["reference"], "reef": m["reef"], "error": f"{m['distance']:.2f}"}
+    matches = [{"reference": m["reference"], "reef": m["reef"], "error": number(m["distance"], ".2f")}
                for m in ev["matches"]]
     matches += [{"reference": rid, "reef": "missed (FN)", "error": ""} for rid in ev["unmatched_references"]]
     matches += [{"reference": "none (FP)", "reef": rid, "error": ""} for rid in ev["unmatched_reefs"]]

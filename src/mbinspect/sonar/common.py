@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..crs import project_lonlat, utm_crs
-from ..errors import InputError
+from ..errors import InputError, InputWarning
 
 __all__ = ["Soundings", "to_cloud", "utm_crs", "offsets_to_geographic", "project_lonlat", "Datagrams"]
 
@@ -113,7 +114,14 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
     """
     from ..cloud import PointCloud
 
-    s = soundings if keep_rejected else soundings.subset(soundings.fields["valid"].astype(bool))
+    valid = soundings.fields["valid"].astype(bool)
+    extra = soundings.fields.get("extra_detection")
+    if not keep_rejected and extra is not None and (extra & ~valid).any():
+        warnings.warn(f"{soundings.meta.get('source')}: {int((extra & ~valid).sum()):,} extra detections "
+                      "(water-column targets the sonar reports beside the seabed) left out with the "
+                      f"{int((~valid & ~extra).sum()):,} soundings it rejected (`keep_rejected` keeps them)",
+                      InputWarning, stacklevel=4)
+    s = soundings if keep_rejected else soundings.subset(valid)
     ok = np.isfinite(s.lat) & np.isfinite(s.lon) & np.isfinite(s.z)
     if not ok.any():
         raise InputError(f"{s.meta.get('source')}: no sounding with a position")

@@ -129,7 +129,8 @@ def _assemble(path: str, blocks: dict[int, list[np.ndarray]], per_ping: list[tup
         "beam_angle": cols["beam_angle"].astype(np.float64),
         "intensity": cols["reflectivity"].astype(np.float64),
         "time": info[rep, 1] + info[rep, 2] * 1e-9,
-        "valid": cols["detection_type"] != 2,
+        # 0 a normal detection, 1 an extra detection (a water-column target), 2 rejected
+        "valid": cols["detection_type"] == 0,
         "extra_detection": cols["detection_type"] == 1,
         "sigma_v": cols["sigma_v"].astype(np.float64), "sigma_h": cols["sigma_h"].astype(np.float64),
     }

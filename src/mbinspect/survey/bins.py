@@ -69,7 +69,9 @@ def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any], target: Sur
     opts = dict(read_options)
     if target is not None and row.sonar and opts.get("crs") is None:
         opts["crs"] = target.crs
-    clouds = row.chunks(path, chunk) if row.chunks is not None else iter([read(path, **opts)])
+    keep = bool(opts.get("keep_rejected"))
+    clouds = row.chunks(path, chunk, keep_rejected=keep) if row.chunks is not None \
+        else iter([read(path, **opts)])
     for k, cloud in enumerate(clouds):
         with warnings.catch_warnings():
             if k:  # a conversion is said once per file, not once per chunk

@@ -5,20 +5,46 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-from ..errors import ParameterError
+from ..errors import InputWarning, ParameterError
 from ..grid import machine_memory
 
-__all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text"]
+__all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text", "scheduler_address"]
 
 #: Progress callback: tasks done, tasks in all, seconds left (None before the first is done).
 Progress = Callable[[int, int, float | None], None]
 
 
+
+
+def scheduler_address(name: str, value: str) -> str:
+    """``value`` checked as a Dask scheduler's address (``tcp://HOST:PORT``).
+
+    Parameters
+    ----------
+    name : str
+        The option's name.
+    value : str
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> scheduler_address("scheduler", "tcp://10.0.0.5:8786")
+    'tcp://10.0.0.5:8786'
+    """
+    if not isinstance(value, str) or not re.fullmatch(r"(tcp|tls|inproc|ucx|ws|wss)://[^\s:/]+:\d+/?", value):
+        raise ParameterError(f"{name}: {value!r}; expected the address of a running Dask scheduler, "
+                             "tcp://HOST:PORT", option=name)
+    return value
 
 
 @contextmanager
@@ -38,9 +64,10 @@ def dask_client(*, scheduler: str | None = None, workers: int | None = None,
     from dask.distributed import Client, LocalCluster
 
     if scheduler is not None:
+        scheduler_address("scheduler", scheduler)
         try:
             client = Client(scheduler, timeout="15s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:
             raise ParameterError(f"scheduler: {scheduler}: cannot connect ({exc}); expected the address "
                                  "of a running Dask scheduler, tcp://HOST:PORT", option="scheduler") from None
         try:
@@ -48,7 +75,12 @@ def dask_client(*, scheduler: str | None = None, workers: int | None = None,
         finally:
             client.close()
         return
-    n = workers or os.cpu_count() or 1
+    cores = os.cpu_count() or 1
+    n = workers or cores
+    if n > cores:
+        warnings.warn(f"workers: {n} asked on a machine of {cores} cores: {cores} used (more processes than "
+                      "cores only share them, each with less memory)", InputWarning, stacklevel=3)
+        n = cores
     memory = memory_per_worker or machine_memory() * 0.8 / n
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, memory_limit=int(memory),
                            dashboard_address=None, silence_logs=logging.ERROR, host="127.0.0.1")

@@ -217,7 +217,7 @@ def survey_crs(paths: Sequence[str | os.PathLike[str]], read_options: Mapping[st
         return SurveyCRS(projected_metres(opts["crs"]).to_wkt(), str(first))
     row = format_of(first, opts.get("format"))
     if row.chunks is not None:
-        head = next(iter(row.chunks(first, 100_000)))
+        head = next(iter(row.chunks(first, 100_000, keep_rejected=True)))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # said again when the file is read
             return SurveyCRS(to_metres(head)[0].crs, str(first))

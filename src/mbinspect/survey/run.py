@@ -30,7 +30,7 @@ from ..pipelines import pipeline_named
 from ..strays import stray_cells
 from ..version import __version__
 from .bins import FileBins, bin_file, block_counts
-from .cluster import Progress, dask_client, map_tasks
+from .cluster import Progress, dask_client, map_tasks, scheduler_address
 from .inputs import SurveyCRS, read_survey, survey_crs
 from .tiles import TilePlan, choose_plan, load_tile, tile_slices
 
@@ -68,8 +68,8 @@ class SurveyOptions(Options):
                                         help="tile the survey when reading it whole would need more "
                                              "(none: half the machine's memory)")
     workers: int | None = option(None, check="count", help="local Dask workers (none: one per core)")
-    scheduler: str | None = option(None, help="a running Dask scheduler, tcp://HOST:PORT (none: a local "
-                                              "cluster)")
+    scheduler: str | None = option(None, check=scheduler_address,
+                                   help="a running Dask scheduler, tcp://HOST:PORT (none: a local cluster)")
     chunk: int = option(2_000_000, check="count", cli=False, help="soundings per chunk read")
 
 
@@ -225,7 +225,7 @@ def _worker_count(client: Any, survey: SurveyOptions) -> int:
         return 1
     if survey.scheduler is not None:
         return max(1, len(client.scheduler_info().get("workers", {})))
-    return survey.workers or os.cpu_count() or 1
+    return min(survey.workers or os.cpu_count() or 1, os.cpu_count() or 1)
 
 
 def _plan(bins: Sequence[FileBins], buffer: float, block: float, survey: SurveyOptions,

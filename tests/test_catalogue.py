@@ -1,0 +1,205 @@
+"""Bad and odd inputs, as a new user brings them (issue 27's catalogue): each read right or
+refused in one line, never a traceback, never silently wrong."""
+
+from __future__ import annotations
+
+import dataclasses
+import multiprocessing as mp
+import struct
+import warnings
+from pathlib import Path
+
+import laspy
+import numpy as np
+import pytest
+
+from mbinspect.cli import main
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.io import read
+from mbinspect.outputs import MARKER
+from mbinspect.reefs import extract_reefs
+from mbinspect.report import write_reef_outputs
+from mbinspect.survey.run import SurveyOptions
+
+DATA = Path(__file__).parent / "data"
+KMALL_EG = DATA / "ets_kmall_eg_-7360358516350552537.kmall"
+
+
+def _one_line(capsys: pytest.CaptureFixture[str], code: int, pattern: str) -> str:
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert pattern in err and "Traceback" not in err
+    errors = [line for line in err.splitlines() if line.startswith("mbinspect: error:")]
+    assert errors == [err.splitlines()[-1]]
+    return err
+
+
+def _las(path: Path, n: int = 1000, **dims: np.ndarray) -> Path:
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.offsets, header.scales = [500000.0, 5000000.0, 0.0], [0.001] * 3
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(0)
+    las.x, las.y = 500000 + rng.uniform(0, 100, n), 5000000 + rng.uniform(0, 100, n)
+    las.z = -10 + rng.normal(0, 0.1, n)
+    for name, values in dims.items():
+        setattr(las, name, values)
+    las.write(path)
+    return path
+
+
+def test_withheld_and_noise_points_are_left_out_and_counted(tmp_path):
+    """PDAL's wontcompress3.las flags 895 of 1,000 points withheld; LAS classes 7 and 18 are
+    noise. Both are left out with a note, in a whole read and in chunks, and kept on request."""
+    withheld = np.zeros(1000, np.uint8)
+    withheld[:895] = 1
+    cls = np.full(1000, 2, np.uint8)
+    cls[900:905] = 7
+    path = _las(tmp_path / "flags.las", withheld=withheld, classification=cls)
+    with pytest.warns(UserWarning, match="895 flagged withheld and 5 classed noise .7, 18. of 1,000 points"):
+        cloud = read(path)
+    assert len(cloud) == 100 and "withheld" not in cloud.fields
+    kept = read(path, keep_rejected=True)
+    assert len(kept) == 1000 and int(kept.fields["withheld"].sum()) == 895
+    from mbinspect.formats.las import iter_las
+
+    with pytest.warns(UserWarning, match="895 flagged withheld"):
+        chunks = list(iter_las(path, 300))
+    assert sum(len(c) for c in chunks) == 100
+
+
+def test_a_header_that_cannot_fit_is_refused_at_once(tmp_path):
+    """A 14.6 KB LAS whose header claims 1,069,128,089 VLRs took 183 s and 7.8 GB to fail."""
+    path = _las(tmp_path / "ok.las")
+    data = bytearray(path.read_bytes())
+    struct.pack_into("<I", data, 100, 1_069_128_089)
+    bad = tmp_path / "vlrs.las"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(InputError, match="1,069,128,089 variable-length records cannot fit"):
+        read(bad)
+    struct.pack_into("<I", data, 100, 0)
+    struct.pack_into("<I", data, 107, 50_000_000)  # the legacy point count
+    (tmp_path / "count.las").write_bytes(bytes(data))
+    with pytest.raises(InputError, match="50,000,000 points of 34 bytes need"):
+        read(tmp_path / "count.las")
+
+
+def test_array_extra_bytes_are_fields(tmp_path):
+    """laspy's extrabytes.las holds a 3-element colour: read as three fields."""
+    header = laspy.LasHeader(point_format=3, version="1.4")
+    header.offsets, header.scales = [0.0, 0.0, 0.0], [0.001] * 3
+    header.add_extra_dim(laspy.ExtraBytesParams(name="Colors", type="3u2"))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = np.arange(10.0), np.arange(10.0), -np.ones(10)
+    las.Colors = np.arange(30, dtype=np.uint16).reshape(10, 3)
+    las.write(tmp_path / "extra.las")
+    cloud = read(tmp_path / "extra.las", z_up=True)
+    assert cloud.fields["Colors_2"].tolist() == list(range(2, 30, 3))
+
+
+def test_kmall_extra_detections_are_not_seabed():
+    with pytest.warns(UserWarning, match="753 extra detections .* left out with the 2,958 soundings"):
+        cloud = read(KMALL_EG)
+    assert len(cloud) == 11_473
+    every = read(KMALL_EG, keep_rejected=True)
+    assert len(every) == 15_184 and int(every.fields["extra_detection"].sum()) == 753
+
+
+def test_options_are_matched_whole(capsys):
+    """argparse's abbreviations took `--plan` for `--plane-threshold`."""
+    _one_line(capsys, main(["reefs", str(KMALL_EG), "--plan", "plan.csv"]), "unrecognized arguments: --plan")
+
+
+@pytest.mark.parametrize("address", ["nonsense", "http://host:8786", "tcp://host"])
+def test_a_bad_scheduler_address_is_one_line(capsys, address):
+    _one_line(capsys, main(["reefs", str(KMALL_EG), "--scheduler", address, "--out", "never"]),
+              f"--scheduler: '{address}'; expected the address of a running Dask scheduler")
+    with pytest.raises(ParameterError):
+        SurveyOptions(scheduler=address)
+
+
+def test_workers_are_capped_at_the_cores(monkeypatch):
+    import os
+
+    import dask.distributed as dd
+
+    from mbinspect.survey.cluster import dask_client
+
+    seen = {}
+
+    class FakeCluster:
+        def __init__(self, n_workers, **kw):
+            seen["n"] = n_workers
+
+        def close(self):
+            pass
+
+    class FakeClient:
+        def __init__(self, cluster):
+            pass
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(dd, "LocalCluster", FakeCluster)
+    monkeypatch.setattr(dd, "Client", FakeClient)
+    with pytest.warns(UserWarning, match=f"workers: 64 asked on a machine of {os.cpu_count()} cores"):
+        with dask_client(workers=64):
+            pass
+    assert seen["n"] == os.cpu_count()
+
+
+def test_overwrite_replaces_a_result_never_a_users_folder(tmp_path, capsys):
+    mine = tmp_path / "exists2"
+    mine.mkdir()
+    (mine / "keep.txt").write_text("a user's own file")
+    code = main(["simulate", "jacket", "--ping-spacing", "1.5", "--out", str(mine), "--overwrite"])
+    _one_line(capsys, code, f"holds files mbinspect did not write (no {MARKER})")
+    assert (mine / "keep.txt").read_text() == "a user's own file"
+    out = tmp_path / "sim"
+    assert main(["simulate", "jacket", "--ping-spacing", "1.5", "--out", str(out)]) == 0
+    assert (out / MARKER).is_file()
+    assert main(["simulate", "jacket", "--ping-spacing", "1.5", "--seed", "2", "--out", str(out),
+                 "--overwrite"]) == 0
+
+
+def _read_in_a_daemon(path: str, queue: mp.Queue) -> None:
+    try:
+        queue.put(len(read(path, z_up=True)))
+    except BaseException as exc:  # reported to the test
+        queue.put(repr(exc))
+
+
+def test_ascii_is_read_inside_a_daemonic_worker(tmp_path, monkeypatch):
+    """A Dask worker is a daemonic process, which may not start children: the ASCII parser
+    started its pool there (`daemonic processes are not allowed to have children`)."""
+    from mbinspect.formats import ascii_parse
+
+    monkeypatch.setattr(ascii_parse, "CHUNK_BYTES", 2**18)
+    path = tmp_path / "big.xyz"
+    rng = np.random.default_rng(1)
+    xyz = np.column_stack([rng.uniform(0, 500, 100_000), rng.uniform(0, 500, 100_000),
+                           rng.normal(-10, 1, 100_000)])
+    np.savetxt(path, xyz, fmt="%.3f")
+    assert path.stat().st_size > 4 * ascii_parse.CHUNK_BYTES  # several chunks: the parallel path
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    proc = ctx.Process(target=_read_in_a_daemon, args=(str(path), queue), daemon=True)
+    proc.start()
+    got = queue.get(timeout=120)
+    proc.join(30)
+    assert got == 100_000
+
+
+def test_the_reef_report_takes_absent_values(tmp_path):
+    """Deep real files gave a seabed without a residual RMS: the report writer ended in
+    `unsupported format string passed to NoneType.__format__`."""
+    from mbinspect.simulate import simulate
+
+    sim = simulate("reef-field", seed=2, groups="cross1", per_group=4, ping_spacing=0.8, close_pairs=0)
+    result = extract_reefs(sim.cloud)
+    hollow = dataclasses.replace(result, seabed={**result.seabed, "residual_rms": None})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no silent NaN formatting either
+        written = write_reef_outputs(hollow, sim.cloud.xyz, tmp_path, figures=False)
+    assert "report.html" in written
+    assert "seabed residual RMS (m)</td><td>–" in (tmp_path / "report.html").read_text()
