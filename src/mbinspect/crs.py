@@ -216,7 +216,17 @@ def to_metres(cloud: PointCloud, target: str | None = None) -> tuple[PointCloud,
     wanted = projected_metres(target) if target is not None else None
     if horizontal.is_projected and factor == 1.0 and (wanted is None or wanted.equals(source)
                                                       or wanted.equals(horizontal)):
-        return cloud, []
+        z_factor, z_rule = _vertical_factor(source, horizontal)
+        if z_factor == 1.0:
+            return cloud, []
+        # metres in plan, heights in feet (a COPC in NAD83 / Oregon LCC + NAVD88 height (ftUS))
+        xyz = cloud.xyz.copy()
+        xyz[:, 2] *= z_factor
+        note = (f"heights in {source.name} converted from {z_rule} to metres (× {z_factor:.10g}); "
+                f"the plan CRS {horizontal.name} kept")
+        meta = {**cloud.meta, "source_crs": source.to_wkt()}
+        return replace(cloud, xyz=xyz, crs=horizontal.to_wkt(), meta=meta), \
+            [f"{cloud.source}: {note}" if cloud.source else note]
     if horizontal.is_geographic and not looks_geographic(cloud.xyz):
         x, y = cloud.xyz[0, :2]
         raise InputError(f"{cloud.source}: the file's CRS {source.name} is geographic, but its coordinates "
