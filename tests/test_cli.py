@@ -61,7 +61,7 @@ def test_simulate_writes_files_and_refuses_to_overwrite(tmp_path, capsys):
             "--format", "laz"]
     assert main(argv) == 0
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["design.csv", "labels.npz", "soundings.laz", "truth.json"]
+    assert names == [".mbinspect-result", "design.csv", "labels.npz", "soundings.laz", "truth.json"]
     truth = json.loads((out / "truth.json").read_text())
     assert len(truth["piles"]) == 4
     assert main(argv) == 2

@@ -13,8 +13,8 @@ Examples
 >>> base = pathlib.Path(tempfile.mkdtemp())
 >>> with output_dir(base / "out") as tmp:
 ...     write_json({"a": 1}, tmp / "a.json")
->>> sorted(p.name for p in (base / "out").iterdir())
-['a.json']
+>>> sorted(p.name for p in (base / "out").iterdir())  # and the marker --overwrite looks for
+['.mbinspect-result', 'a.json']
 """
 
 from __future__ import annotations

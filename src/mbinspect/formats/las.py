@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import os
 import struct
+import sys
+import tempfile
 import warnings
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -26,7 +29,8 @@ def _read_las(path: Path, keep_rejected: bool = False) -> PointCloud:
 
     check_header(path)
     try:
-        las = laspy.read(path)
+        with native_stderr_held():
+            las = laspy.read(path)
     except (KeyboardInterrupt, SystemExit, GeneratorExit):
         raise
     except BaseException as exc:  # laspy raises many types, lazrs a Rust panic (a BaseException)
@@ -55,7 +59,12 @@ def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000, keep_rejected
     try:
         with laspy.open(p) as reader:
             header = reader.header
-            for points in reader.chunk_iterator(chunk):
+            chunks = reader.chunk_iterator(chunk)
+            while True:
+                with native_stderr_held():  # never held across a yield
+                    points = next(chunks, None)
+                if points is None:
+                    break
                 cloud = _las_cloud(points, header, p)
                 if not keep_rejected:
                     cloud, left = _without_rejected(cloud)
@@ -67,6 +76,41 @@ def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000, keep_rejected
         raise InputError(f"{p}: not a readable LAS/LAZ file ({_reason(exc)})") from None
     if counts[:2].any():
         _say_left_out(str(p), counts)
+
+
+@contextmanager
+def native_stderr_held() -> Iterator[None]:
+    """Hold what compiled code writes to the process's stderr (a Rust panic's message from
+    lazrs) while it runs: given back as written when the block ends well, dropped when it
+    raises, so that a broken file is the one line the caller makes of the exception.
+
+    Examples
+    --------
+    >>> with native_stderr_held():
+    ...     pass
+    """
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, ValueError, OSError):  # no real stderr (captured): nothing to hold
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), fd)
+        ok = False
+        try:
+            yield
+            ok = True
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, fd)
+            os.close(saved)
+            if ok:
+                held.seek(0)
+                written = held.read()
+                if written:
+                    os.write(fd, written)
 
 
 def _reason(exc: BaseException) -> str:
