@@ -203,3 +203,38 @@ def test_the_reef_report_takes_absent_values(tmp_path):
         written = write_reef_outputs(hollow, sim.cloud.xyz, tmp_path, figures=False)
     assert "report.html" in written
     assert "seabed residual RMS (m)</td><td>–" in (tmp_path / "report.html").read_text()
+
+
+@pytest.mark.parametrize(("name", "text", "columns_kw"), [
+    # a header over decimal-comma rows: the header shows no decimal mark, the rows do
+    ("dc.csv", "X;Y;Z\n554845,028;4179000,717;-10,983\n554846,028;4179001,717;-10,883\n"
+               "554847,028;4179000,217;-10,783\n", {}),
+    # a header that names a date and a time of day before the coordinates
+    ("dt.txt", "Date Time Easting Northing Elevation\n"
+               "2015-07-08 23:52:15.000000 554845.028 4179000.717 -10.983\n"
+               "2015-07-08 23:52:16.500000 554846.028 4179001.717 -10.883\n"
+               "2015-07-08 23:52:17.000000 554847.028 4179000.217 -10.783\n", {}),
+    # Leica PTS: a count line, then x y z intensity red green blue
+    ("scan.pts", "3\n554845.028 4179000.717 -10.983 -1200 10 20 30\n"
+                 "554846.028 4179001.717 -10.883 -1100 11 21 31\n"
+                 "554847.028 4179000.217 -10.783 -1000 12 22 32\n", {}),
+])
+def test_layouts_the_header_or_the_format_names(tmp_path, name, text, columns_kw):
+    path = tmp_path / name
+    path.write_text(text)
+    cloud = read(path, **columns_kw)
+    assert np.allclose(cloud.xyz[0], [554845.028, 4179000.717, -10.983])
+    if name == "dt.txt":
+        from datetime import UTC, datetime
+
+        t0 = datetime(2015, 7, 8, 23, 52, 15, tzinfo=UTC).timestamp()
+        assert np.allclose(cloud.fields["time"], [t0, t0 + 1.5, t0 + 2.0])
+    if name == "scan.pts":
+        assert cloud.fields["blue"].tolist() == [30, 31, 32]
+
+
+@pytest.mark.parametrize("suffix", [".mb57", ".mb58", ".mb59"])
+def test_mb_system_names_of_kongsberg_files(tmp_path, suffix):
+    path = tmp_path / f"belgica{suffix}"
+    path.write_bytes((DATA / "Belgica_0077.all").read_bytes())
+    assert len(read(path)) == 2304

@@ -35,6 +35,7 @@ from .ascii_sniff import (
     DELIMITERS,
     DEPTH_NAMES,
     ELEVATION_NAMES,
+    TEXT_NAMES,
     AsciiTable,
     is_number,
     parse_columns,
@@ -87,7 +88,7 @@ def _parse_chunk(args: tuple[str, int, int, AsciiTable]) -> np.ndarray | str:
     # every column used: let loadtxt check the column count of every line too
     cols = None if len(use) == table.ncols and not table.trailing else use
     conv: dict[int | str, Callable[[str], float]] = {k: parse_time for k, n in enumerate(table.names)
-                                                     if n == "time"}
+                                                     if n in TEXT_NAMES}
     try:
         with _quiet_empty():
             arr = np.loadtxt(_io.BytesIO(data), delimiter=table.delimiter, comments=None,
@@ -147,7 +148,7 @@ def _locate_error(path: Path, table: AsciiTable) -> str:
         for col, (cell, name) in enumerate(zip(cells, table.names, strict=True), start=1):
             if name is None:
                 continue
-            if name == "time":
+            if name in TEXT_NAMES:
                 try:
                     parse_time(cell)
                 except ValueError:
@@ -283,6 +284,8 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
     if table.count is not None and table.count != out.rows:
         raise InputError(f"{path}, line 1: the file says {table.count} points but holds {out.rows}")
     xyz, cols = out.arrays()
+    if "date" in cols:  # a date column and a time-of-day column: one time
+        cols["time"] = cols.pop("date") + cols.get("time", 0.0)
     return xyz, cols, table
 
 

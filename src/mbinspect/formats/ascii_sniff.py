@@ -12,8 +12,8 @@ from pathlib import Path
 
 from ..errors import InputError, ParameterError
 
-__all__ = ["ALIASES", "DELIMITERS", "DEPTH_NAMES", "ELEVATION_NAMES", "AsciiTable", "parse_columns", "sniff",
-           "parse_time", "split_cells", "is_number"]
+__all__ = ["ALIASES", "DELIMITERS", "DEPTH_NAMES", "ELEVATION_NAMES", "TEXT_NAMES", "AsciiTable",
+           "parse_columns", "sniff", "parse_time", "split_cells", "is_number"]
 
 
 #: Header names understood, mapped to the canonical field names.
@@ -28,8 +28,11 @@ ALIASES: dict[str, str] = {
     "line": "line", "line_id": "line", "linename": "line", "line_name": "line",
     "ping": "ping", "ping_id": "ping", "ping_number": "ping",
     "classification": "classification", "class": "classification",
-    "time": "time", "datetime": "time", "timestamp": "time",
+    "time": "time", "datetime": "time", "timestamp": "time", "date": "date",
 }
+
+#: Columns of text a header may name: read as times (a ``date`` column joins the ``time``).
+TEXT_NAMES = ("time", "date")
 
 
 DEPTH_NAMES = {"depth", "d"}
@@ -204,24 +207,27 @@ def sniff(path: Path, columns: str | Sequence[str] | None, delimiter: str | None
                 delimiter, sniffed_mark = _guess_delimiter(stripped)
                 mark = mark or sniffed_mark
                 seen_delimiter = True
-            mark = mark or "."
             cells = split_cells(stripped, delimiter)
             trailing = len(cells) > 1 and cells[-1] == ""
             if trailing:
                 cells = cells[:-1]
-            if header is None and not any(is_number(c, mark) for c in cells if c):
+            if header is None and not any(is_number(c, mark or ".") for c in cells if c):
                 header = [c.strip().strip('"').strip("'") for c in cells]
                 offset += len(raw)
+                mark = decimal  # a header shows no decimal mark: the first data line does
                 continue
+            if mark is None:
+                mark = "," if delimiter != "," and any(_DECIMAL_COMMA.match(c.strip().strip('"'))
+                                                       for c in cells) else "."
             ncols = len(cells)
             first_cells = cells
             break
         else:
             raise InputError(f"{path}: no data lines (only comments, blank lines or a header)")
-    names = _names(path, lineno, ncols, columns, header)
+    names = _names(path, lineno, ncols, columns, header, leica=count is not None)
     quoted = any(c.startswith('"') for c in first_cells)
     for k, (name, cell) in enumerate(zip(names, first_cells, strict=True)):
-        if name is not None and name != "time" and not is_number(cell, mark or "."):
+        if name is not None and name not in TEXT_NAMES and not is_number(cell, mark or "."):
             raise InputError(f"{path}, line {lineno}, column {k + 1}: {cell!r} is not a number; give "
                              "`columns` with '-' for a text column (e.g. -,x,y,z)")
     header_names = [_header_name(h) for h in header] if header else None
@@ -233,7 +239,7 @@ def sniff(path: Path, columns: str | Sequence[str] | None, delimiter: str | None
 
 
 def _names(path: Path, lineno: int, ncols: int, columns: str | Sequence[str] | None,
-           header: list[str] | None) -> list[str | None]:
+           header: list[str] | None, leica: bool = False) -> list[str | None]:
     """What each column holds: from ``columns``, the header or the column count."""
     names: list[str | None]
     if columns is not None:
@@ -255,6 +261,8 @@ def _names(path: Path, lineno: int, ncols: int, columns: str | Sequence[str] | N
         return ["x", "y", "z"]
     if ncols == 4:
         return ["x", "y", "z", "intensity"]
+    if ncols == 7 and leica:  # Leica PTS: a count line, then x y z intensity red green blue
+        return ["x", "y", "z", "intensity", "red", "green", "blue"]
     if ncols < 3:
         raise InputError(f"{path}, line {lineno}: {ncols} column{'s' if ncols != 1 else ''}; expected at "
                          "least 3 (x y z)")
@@ -277,9 +285,14 @@ def parse_time(text: str | bytes) -> float:
     --------
     >>> parse_time("2015-07-08T23:52:15+00:00") == parse_time("2015/07/08/23/52/15.000000")
     True
+    >>> parse_time("2015-07-08") + parse_time("23:52:15.000000") == parse_time("2015-07-08T23:52:15")
+    True
     """
     s = text.decode() if isinstance(text, bytes) else text
     s = s.strip().strip('"')
+    if re.fullmatch(r"\d{1,2}:\d{2}(:\d{2}(\.\d*)?)?", s):  # a time of day, its date in a date column
+        h, m, *rest = s.split(":")
+        return int(h) * 3600.0 + int(m) * 60.0 + (float(rest[0]) if rest else 0.0)
     parts = s.split("/")
     if len(parts) == 6:
         sec = float(parts[5])

@@ -27,7 +27,8 @@ def _reader(read: Callable[[str], Soundings]) -> Callable[[Path, ReadRequest], P
 
 GSF = Format("gsf", (".gsf", ".mb121"), _reader(read_gsf), None, 12.0, options=("keep_rejected",),
              sonar=True, fields=_FIELDS)
-KMALL = Format("kmall", (".kmall",), _reader(read_kmall), None, 20.0, options=("keep_rejected",),
+KMALL = Format("kmall", (".kmall", ".mb261"), _reader(read_kmall), None, 20.0, options=("keep_rejected",),
                sonar=True, fields=_FIELDS)
-ALL = Format("all", (".all", ".mb56"), _reader(read_all), None, 16.0, options=("keep_rejected",),
-             sonar=True, fields=_FIELDS)
+#: MB-System names Kongsberg's .all files .mb56-.mb59 by their sonar generation and KMALL .mb261.
+ALL = Format("all", (".all", ".mb56", ".mb57", ".mb58", ".mb59"), _reader(read_all), None, 16.0,
+             options=("keep_rejected",), sonar=True, fields=_FIELDS)
