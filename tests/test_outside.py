@@ -53,6 +53,7 @@ def _in(crs: CRS | None, out: str | None, xyz: np.ndarray) -> np.ndarray:
 LAS = [r for r in ROWS if r["expect"] == "read" and r["file"].endswith((".las", ".laz"))]
 PLY = [r for r in ROWS if r["file"].endswith(".ply") and r["expect"].startswith("read")]
 REFUSED = [r for r in ROWS if r["expect"].startswith("refused")]
+SONAR = [r for r in ROWS if r["file"].endswith((".gsf", ".all", ".kmall")) and r["expect"].startswith("read")]
 
 
 @pytest.mark.parametrize("row", LAS, ids=lambda r: r["file"])
@@ -75,6 +76,15 @@ def test_las_files_read_as_laspy_reads_them(row):
 def test_ply_files_read_with_the_vertex_count_of_their_header(row):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        cloud = read(OUTSIDE / row["file"])
+    assert len(cloud) == int(row["expect"].split()[1])
+
+
+@pytest.mark.parametrize("row", SONAR, ids=lambda r: r["file"])
+def test_sonar_files_read_with_their_peers_counts(row):
+    """NOAA's EM302 GSF writes its intensity series one byte past each ping record: read, as
+    libgsf and gsfu read it, with one warning."""
+    with pytest.warns(UserWarning, match="runs up to 1 byte past its record"):
         cloud = read(OUTSIDE / row["file"])
     assert len(cloud) == int(row["expect"].split()[1])
 

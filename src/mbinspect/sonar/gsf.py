@@ -13,9 +13,11 @@ across-track distances cannot place its soundings and is refused.
 from __future__ import annotations
 
 import struct
+import warnings
 
 import numpy as np
 
+from ..errors import InputWarning
 from .common import Datagrams, Soundings, offsets_to_geographic
 
 __all__ = ["read_gsf"]
@@ -59,6 +61,7 @@ def read_gsf(path: str) -> Soundings:
     version = ""
     scales: dict[int, tuple[float, float, int]] = {}
     pings: list[tuple] = []
+    overruns: list[tuple[int, int]] = []
     arrays: dict[str, list[tuple[np.ndarray, float, float]]] = {k[0]: [] for k in _ARRAYS.values()}
     off, n = 0, len(data)
     while off + 8 <= n:
@@ -70,18 +73,25 @@ def read_gsf(path: str) -> Soundings:
         if kind == _HEADER:
             version = data[start:start + 12].split(b"\0")[0].decode("ascii", "replace")
         elif kind == _PING:
-            pings.append(_ping(dg, start, off + 8 + size, off, version, scales, arrays))
+            pings.append(_ping(dg, start, off + 8 + size, off, version, scales, arrays, overruns))
         off += 8 + size
     if not version.startswith("GSF-v"):
         raise dg.fail("no GSF header record; expected a GSF file")
     if not pings:
         raise dg.fail("no swath bathymetry ping record; expected soundings")
+    if overruns:
+        subs = sorted({s for s, _ in overruns})
+        most = max(k for _, k in overruns)
+        warnings.warn(f"{path}: in {len(overruns)} of {len(pings)} pings a subrecord not read here "
+                      f"({', '.join(map(str, subs))}) runs up to {most} byte{'s' * (most > 1)} past its "
+                      "record; ignored, as libgsf does", InputWarning, stacklevel=4)
     return _assemble(path, version, pings, arrays)
 
 
 def _ping(dg: Datagrams, start: int, end: int, off: int, version: str,
           scales: dict[int, tuple[float, float, int]],
-          arrays: dict[str, list[tuple[np.ndarray, float, float]]]) -> tuple:
+          arrays: dict[str, list[tuple[np.ndarray, float, float]]],
+          overruns: list[tuple[int, int]]) -> tuple:
     data = dg.data
     sec, nsec, lon, lat, nbeams, _centre, ping_flags, _res, tide, draft, heading = struct.unpack_from(
         ">iiiiHHHhhiH", data, start)
@@ -92,7 +102,12 @@ def _ping(dg: Datagrams, start: int, end: int, off: int, version: str,
         sub, size = word >> 24, word & 0xFFFFFF
         body = p + 4
         if body + size > end:
-            raise dg.fail(f"ping subrecord {sub} of {size} bytes runs past its record", off)
+            if sub == _SCALE or sub in _ARRAYS:
+                raise dg.fail(f"ping subrecord {sub} of {size} bytes runs past its record", off)
+            # a subrecord not read here (NOAA's EM302 files write their intensity series one
+            # byte long, as libgsf and gsfu tolerate): its ping kept, the overrun counted
+            overruns.append((sub, body + size - end))
+            break
         if sub == _SCALE:
             count, = struct.unpack_from(">i", data, body)
             for k in range(count):
