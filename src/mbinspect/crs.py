@@ -134,7 +134,16 @@ def project_lonlat(lon: np.ndarray, lat: np.ndarray, crs: str | None = None
 
     target = crs or utm_crs(float(np.median(lat)), float(np.median(lon)))
     out = projected_metres(target)
-    _check_scale(out, lon, lat, target)
+    try:
+        _check_scale(out, lon, lat, target)
+    except ScaleError as exc:
+        if crs is not None:
+            raise
+        span = max(float(np.ptp(lon)), float(np.ptp(lat)))
+        raise ScaleError(f"positions spread over {span:,.2f} degrees, more than one projection holds to "
+                         "1:1000 (a corrupt position or navigation jump?); expected one survey's extent, or "
+                         "`crs` for a survey this wide", ratio=exc.ratio, utm=exc.utm,
+                         name=exc.name) from None
     x, y = Transformer.from_crs("EPSG:4326", out, always_xy=True).transform(lon, lat)
     return np.asarray(x), np.asarray(y), out.to_wkt(), out.name
 

@@ -24,13 +24,14 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from .cloud import PointCloud, crs_name, pipeline_input
 from .crs import to_metres
 from .describe import CloudSummary, describe
-from .errors import FileAccessError, InputError, InputWarning, ParameterError
+from .errors import FileAccessError, InputError, InputWarning, MBInspectError, ParameterError
 from .formats import FORMAT_NAMES, FORMATS, SONAR_FORMATS, ReadRequest, format_from_path
 from .formats.ascii_parse import DELIMITERS, parse_columns
 from .outputs import atomic_path
@@ -174,7 +175,7 @@ def read(
         request = ReadRequest(columns=columns, delimiter=delimiter, decimal=decimal,
                               depth_positive=depth_positive, z_up=z_up, crs=crs,
                               keep_rejected=keep_rejected, progress=progress)
-        cloud = row.read(p, request)
+        cloud = _read_row(row, p, request)
         if row.sonar:
             return cloud
         if cloud.meta.get("geographic"):
@@ -201,6 +202,22 @@ def read(
 
 
 
+
+
+def _read_row(row: Any, path: Path, request: ReadRequest) -> PointCloud:
+    """A format's reader, any exception it lets out (a corrupt record no check foresaw: a
+    date of month 13, a length past the buffer) made one line naming the file."""
+    try:
+        return row.read(path, request)
+    except (MBInspectError, PermissionError, KeyboardInterrupt, SystemExit):
+        raise
+    except MemoryError:
+        raise InputError(f"{path}: more than this machine's memory to read as {row.name}; the file may "
+                         "be corrupt, or is a survey to run in tiles") from None
+    except Exception as exc:
+        reason = str(exc).splitlines()[0][:160] if str(exc) else ""
+        raise InputError(f"{path}: cannot be read as {row.name} ({type(exc).__name__}"
+                         f"{': ' + reason if reason else ''}); expected an intact {row.name} file") from None
 
 
 def in_metres(cloud: PointCloud, crs: str | None = None) -> PointCloud:

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 from ..cloud import PointCloud
-from ..crs import looks_geographic, project_lonlat
-from ..errors import InputWarning, ParameterError
+from ..crs import ScaleError, looks_geographic, project_lonlat
+from ..errors import InputError, InputWarning, ParameterError
 from .ascii_parse import DEPTH_NAMES, ELEVATION_NAMES, read_ascii
 from .base import Format, ReadRequest
 
@@ -44,7 +44,12 @@ def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str 
         warnings.warn(meta["z_doubt"], InputWarning, stacklevel=3)
     out_crs = None
     if geographic:
-        x, y, out_crs, name = project_lonlat(xyz[:, 0], xyz[:, 1], crs)
+        try:
+            x, y, out_crs, name = project_lonlat(xyz[:, 0], xyz[:, 1], crs)
+        except ScaleError as exc:
+            if crs is not None:
+                raise
+            raise InputError(f"{p}: {exc}") from None
         why = "the header names latitude and longitude" if table.geographic else \
             "x and y lie within degree ranges spanning under a degree"
         warnings.warn(f"{p}: read as longitude and latitude ({why}); projected to {name}", InputWarning,

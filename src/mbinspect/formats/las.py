@@ -164,6 +164,40 @@ def _say_left_out(source: str | None, counts: np.ndarray) -> None:
                   "keeps them)", InputWarning, stacklevel=4)
 
 
+def _chunk_table_problems(path: Path, size: int, header_size: int, offset: int, n_vlr: int,
+                          count: int) -> list[str]:
+    """What is wrong with a LAZ file's chunk table (its count read plainly before lazrs
+    reads it: a garbage count made it ask for 48 GB and abort the process)."""
+    with open(path, "rb") as fh:
+        fh.seek(header_size)
+        vlrs = fh.read(max(0, offset - header_size))
+        fh.seek(offset)
+        table = fh.read(8)
+    chunk_size, p = None, 0
+    for _ in range(n_vlr):
+        if p + 54 > len(vlrs):
+            break
+        user, record, length = vlrs[p + 2:p + 18], *struct.unpack_from("<HH", vlrs, p + 18)
+        if user.rstrip(b"\0") == b"laszip encoded" and record == 22204 and length >= 16:
+            chunk_size = struct.unpack_from("<I", vlrs, p + 54 + 12)[0]
+        p += 54 + length
+    if chunk_size is None or len(table) < 8:
+        return []
+    at = struct.unpack_from("<q", table)[0]
+    if at == -1 or at == 0:  # no table written: lazrs says so itself
+        return []
+    if not offset + 8 <= at <= size - 8:
+        return [f"its LAZ chunk table offset ({at:,}) lies outside the file (LASzip before 2.0 wrote "
+                "none, which the LAZ decoder here needs)"]
+    with open(path, "rb") as fh:
+        fh.seek(at)
+        version, chunks = struct.unpack("<II", fh.read(8))
+    most = count if chunk_size == 0xFFFFFFFF else -(-count // max(chunk_size, 1)) + 1
+    if version != 0 or chunks > max(most, 1):
+        return [f"its LAZ chunk table (version {version}, {chunks:,} chunks) cannot hold {count:,} points"]
+    return []
+
+
 def check_header(path: Path) -> None:
     """Refuse at once a LAS header whose counts cannot fit in the file (a header claiming a
     billion records of a 15 KB file took minutes and gigabytes to fail in laspy).
@@ -197,6 +231,8 @@ def check_header(path: Path) -> None:
     compressed = bool(fmt & 0x80)
     if not compressed and offset + count * rec_len > size:
         problems.append(f"{count:,} points of {rec_len} bytes need {offset + count * rec_len:,} bytes")
+    if compressed and not problems:
+        problems += _chunk_table_problems(path, size, header_size, offset, n_vlr, count)
     if problems:
         raise InputError(f"{path}: a LAS header that cannot fit in the file's {size:,} bytes: "
                          f"{'; '.join(problems)}; expected counts and offsets within the file")

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..crs import project_lonlat, utm_crs
+from ..crs import ScaleError, project_lonlat, utm_crs
 from ..errors import InputError, InputWarning
 
 __all__ = ["Soundings", "to_cloud", "utm_crs", "offsets_to_geographic", "project_lonlat", "Datagrams"]
@@ -126,7 +126,12 @@ def to_cloud(soundings: Soundings, *, crs: str | None = None, keep_rejected: boo
     if not ok.any():
         raise InputError(f"{s.meta.get('source')}: no sounding with a position")
     s = s.subset(ok) if not ok.all() else s
-    x, y, wkt, name = project_lonlat(s.lon, s.lat, crs)
+    try:
+        x, y, wkt, name = project_lonlat(s.lon, s.lat, crs)
+    except ScaleError as exc:
+        if crs is not None:
+            raise
+        raise InputError(f"{s.meta.get('source')}: {exc}") from None
     meta = {**s.meta, "crs_name": name, "lines": 1}
     fields = {**s.fields, "line": np.zeros(len(s), np.int32)} if "line" not in s.fields else dict(s.fields)
     return PointCloud(np.column_stack([x, y, s.z]), fields, source=s.meta.get("source"),
