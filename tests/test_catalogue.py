@@ -238,3 +238,21 @@ def test_mb_system_names_of_kongsberg_files(tmp_path, suffix):
     path = tmp_path / f"belgica{suffix}"
     path.write_bytes((DATA / "Belgica_0077.all").read_bytes())
     assert len(read(path)) == 2304
+
+
+def test_a_survey_given_twice_counts_once(reef_small, jacket_exact):
+    """Duplicated soundings changed the reef count and shrank every pile's 1σ by √2."""
+    from mbinspect.cloud import PointCloud
+    from mbinspect.piles import locate_piles
+
+    cloud = reef_small.cloud
+    twice = PointCloud(np.vstack([cloud.xyz, cloud.xyz]),
+                       {k: np.concatenate([v, v]) for k, v in cloud.fields.items()}, crs=cloud.crs)
+    once, doubled = extract_reefs(cloud), extract_reefs(twice)
+    assert len(doubled.reefs) == len(once.reefs)
+    assert any(f"{len(cloud):,} soundings are exact copies" in w for w in doubled.warnings)
+    jac = jacket_exact.cloud
+    jac2 = PointCloud(np.vstack([jac.xyz, jac.xyz]),
+                      {k: np.concatenate([v, v]) for k, v in jac.fields.items()})
+    a, b = locate_piles(jac, count=4, radius=0.75), locate_piles(jac2, count=4, radius=0.75)
+    assert [round(p.sigma_xy, 6) for p in a.piles] == [round(p.sigma_xy, 6) for p in b.piles]

@@ -20,7 +20,7 @@ import numpy as np
 from .checks import check_points
 from .errors import DataError, NotEnoughPointsError, ParameterError
 from .geometry import crop_mask
-from .strays import stray_soundings
+from .strays import duplicate_soundings, stray_soundings
 
 __all__ = ["PointCloud", "crs_name", "pipeline_input", "sources", "ping_ranges"]
 
@@ -149,6 +149,12 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
         cloud = cloud.subset(crop_mask(cloud.xyz, crop))
     pts = check_points(cloud.xyz, minimum=minimum, name="points")
     notes: list[str] = []
+    copies = duplicate_soundings(pts)
+    if copies.any():
+        notes.append(f"{int(copies.sum()):,} soundings are exact copies of others (a file given twice, an "
+                     "export written twice?) and were counted once")
+        cloud = cloud.subset(~copies)
+        pts = check_points(cloud.xyz, minimum=minimum, name="points")
     if cloud.meta.get("strays_removed"):  # a tile of a survey: done once for the whole survey
         return cloud, pts, notes
     stray = stray_soundings(pts)

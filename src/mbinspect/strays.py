@@ -9,7 +9,8 @@ import numpy as np
 
 from .grid import cell_key, unpack_cells
 
-__all__ = ["stray_soundings", "stray_cells", "cell_groups", "STRAY_SHARE", "STRAY_OF_LARGEST"]
+__all__ = ["stray_soundings", "stray_cells", "cell_groups", "duplicate_soundings", "STRAY_SHARE",
+           "STRAY_OF_LARGEST"]
 
 
 #: Share of the soundings a spatially separate group may hold and still be set aside as
@@ -125,3 +126,46 @@ def cell_groups(cells: np.ndarray, gap_cells: int) -> tuple[int, np.ndarray]:
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(cells), len(cells)))
     n, group = connected_components(graph, directed=False)
     return int(n), group.astype(np.int64)
+
+
+def duplicate_soundings(points: np.ndarray) -> np.ndarray:
+    """Soundings that are exact copies of an earlier one (x, y and z to the bit): a file
+    given twice, an export written twice. Counted twice, they would change a reef count and
+    shrink every 1σ by √2.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True for every copy after the first.
+
+    Examples
+    --------
+    >>> p = np.array([[1.0, 2.0, -3.0], [1.0, 2.0, -3.5], [1.0, 2.0, -3.0], [4.0, 2.0, -3.0]])
+    >>> duplicate_soundings(p).tolist()
+    [False, False, True, False]
+    """
+    pts = np.asarray(points, np.float64)
+    out = np.zeros(len(pts), dtype=bool)
+    if len(pts) < 2:
+        return out
+    # a 64-bit hash of each row's bits: only rows whose hashes meet can be copies; those
+    # few are then compared exactly
+    bits = np.ascontiguousarray(pts).view(np.uint64)
+    mix = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], dtype=np.uint64)
+    h = bits[:, 0] * mix[0] ^ bits[:, 1] * mix[1] ^ bits[:, 2] * mix[2]
+    ranked = np.sort(h)  # half an argsort's time: most surveys have no copy, and stop here
+    if not (ranked[1:] == ranked[:-1]).any():
+        return out
+    order = np.argsort(h)
+    meet = np.flatnonzero(h[order[1:]] == h[order[:-1]])
+    if not len(meet):
+        return out
+    rows = order[np.unique(np.r_[meet, meet + 1])]
+    order = rows[np.lexsort((rows, pts[rows, 2], pts[rows, 1], pts[rows, 0]))]
+    same = (pts[order[1:]] == pts[order[:-1]]).all(axis=1)
+    out[order[1:][same]] = True
+    return out
