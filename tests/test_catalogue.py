@@ -256,3 +256,24 @@ def test_a_survey_given_twice_counts_once(reef_small, jacket_exact):
                       {k: np.concatenate([v, v]) for k, v in jac.fields.items()})
     a, b = locate_piles(jac, count=4, radius=0.75), locate_piles(jac2, count=4, radius=0.75)
     assert [round(p.sigma_xy, 6) for p in a.piles] == [round(p.sigma_xy, 6) for p in b.piles]
+
+
+def test_soundings_refuses_a_file_changed_since_and_a_json_not_ours(tmp_path, capsys, reef_small):
+    """`soundings reefs.json 3` after a line file was replaced gave the new file's soundings."""
+    from mbinspect.io import write
+
+    line = tmp_path / "line.laz"
+    write(reef_small.cloud, line)
+    out = tmp_path / "out"
+    assert main(["reefs", str(line), "--out", str(out), "--no-figures"]) == 0
+    capsys.readouterr()
+    assert main(["soundings", str(out / "reefs.json"), "1", "--out", str(tmp_path / "r1.csv")]) == 0
+    assert len((tmp_path / "r1.csv").read_text().splitlines()) > 20
+    other = dataclasses.replace(reef_small.cloud, xyz=reef_small.cloud.xyz + [0.0, 0.0, 0.5])
+    write(other, line)  # another survey under the same name
+    _one_line(capsys, main(["soundings", str(out / "reefs.json"), "1"]),
+              "not the file the result was made from (its sha256 differs")
+    (tmp_path / "foreign.json").write_text('{"reefs": 3, "type": "FeatureCollection"}')
+    _one_line(capsys, main(["soundings", str(tmp_path / "foreign.json"), "1"]), "neither a reefs.json nor")
+    (tmp_path / "list.json").write_text("[1, 2]")
+    _one_line(capsys, main(["soundings", str(tmp_path / "list.json"), "1"]), "neither a reefs.json nor")

@@ -39,19 +39,23 @@ def cmd_soundings(args: argparse.Namespace, rep: Any, argv: Sequence[str]) -> in
         raise InputError(f"{path}: no such file") from None
     except (ValueError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not a JSON result of mbinspect ({exc})") from None
-    kind = "reefs" if "reefs" in result else "piles" if "piles" in result else None
+    kind = next((k for k in ("reefs", "piles") if isinstance(result, dict)
+                 and isinstance(result.get(k), list)), None)
     if kind is None:
         raise InputError(f"{path}: neither a reefs.json nor a piles.json (no 'reefs' or 'piles' list)")
-    found = [o for o in result[kind] if o.get("id") == args.id]
+    found = [o for o in result[kind] if isinstance(o, dict) and o.get("id") == args.id]
     if not found:
-        ids = [o.get("id") for o in result[kind]]
+        ids = [o["id"] for o in result[kind] if isinstance(o, dict) and isinstance(o.get("id"), int)]
         raise ParameterError(f"id: {args.id}; expected one of the {kind} in {path} "
                              f"({min(ids) if ids else '-'}..{max(ids) if ids else '-'})", option="id")
-    params = result.get("parameters", {})
+    params: dict[str, Any] = result["parameters"] if isinstance(result.get("parameters"), dict) else {}
     reading = dict(params.get("reading") or {})
+    inputs: dict[str, Any] = params["input"] if isinstance(params.get("input"), dict) else {}
     if reading.get("crs") is None:
-        reading["crs"] = (params.get("input") or {}).get("crs")
-    rows = object_soundings(kind, found[0], margin=args.margin, read_options=reading)
+        reading["crs"] = inputs.get("crs")
+    records = inputs.get("files") or ([inputs] if "sha256" in inputs else [])
+    recorded = {r["file"]: r["sha256"] for r in records if isinstance(r, dict) and "sha256" in r}
+    rows = object_soundings(kind, found[0], margin=args.margin, read_options=reading, recorded=recorded)
     from ..outputs import atomic_path
 
     header = list(rows[0].keys()) if rows else ["x", "y", "z", "file", "ping"]

@@ -13,7 +13,8 @@ __all__ = ["ping_ranges", "sources", "object_soundings"]
 
 
 def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
-                     read_options: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
+                     read_options: Mapping[str, Any] | None = None,
+                     recorded: Mapping[str, str] | None = None) -> list[dict[str, Any]]:
     """The soundings behind one object of a result: its source files read again, the
     soundings of its ping ranges inside it (a reef's outline, a pile's radius) plus
     ``margin`` m.
@@ -26,6 +27,9 @@ def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
     margin : float
     read_options : mapping, optional
         For :func:`mbinspect.io.read` (the reading the result was made with).
+    recorded : mapping, optional
+        File -> the sha256 the result recorded of it: a file that changed since is refused
+        (its soundings would be another survey's).
 
     Returns
     -------
@@ -36,7 +40,8 @@ def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
     Raises
     ------
     InputError
-        An object without sources (a result of an older version), or a source file gone.
+        An object without sources (a result of an older version), a source file gone, or
+        one that is no longer the file the result was made from.
     """
     from ..errors import InputError
     from ..geometry import points_in_polygon
@@ -49,6 +54,10 @@ def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
     out: list[dict[str, Any]] = []
     opts = {k: v for k, v in (read_options or {}).items() if v is not None}
     for src in srcs:
+        want = (recorded or {}).get(src["file"])
+        if want is not None and _sha256(src["file"]) != want:
+            raise InputError(f"{src['file']}: not the file the result was made from (its sha256 differs "
+                             "from the one the result recorded); expected the survey's own files")
         cloud = read(src["file"], **opts)
         keep = np.ones(len(cloud), bool)
         ping = cloud.fields.get("ping")
@@ -75,3 +84,16 @@ def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
                     row[name] = cloud.fields[name][r].item()
             out.append(row)
     return out
+
+
+def _sha256(path: str) -> str | None:
+    import hashlib
+
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 22), b""):
+                h.update(block)
+    except OSError:
+        return None  # read() names a missing file
+    return h.hexdigest()
