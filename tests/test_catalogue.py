@@ -277,3 +277,11 @@ def test_soundings_refuses_a_file_changed_since_and_a_json_not_ours(tmp_path, ca
     _one_line(capsys, main(["soundings", str(tmp_path / "foreign.json"), "1"]), "neither a reefs.json nor")
     (tmp_path / "list.json").write_text("[1, 2]")
     _one_line(capsys, main(["soundings", str(tmp_path / "list.json"), "1"]), "neither a reefs.json nor")
+
+
+def test_coordinates_no_survey_can_have_are_refused(tmp_path, capsys):
+    """Coordinates of 1e308 ran every grid away (the run did not end)."""
+    path = tmp_path / "big.xyz"
+    path.write_text("1e308 2 -3\n" + "".join(f"{k}.5 {k}.2 -10.{k}\n" for k in range(1, 30)))
+    _one_line(capsys, main(["reefs", str(path), "--out", str(tmp_path / "o")]),
+              "point 1 is [1e+308, 2.0, -3.0]; expected metres in a projected CRS")

@@ -238,7 +238,44 @@ def check_points(points: Any, *, minimum: int = 1, name: str = "points") -> np.n
         bad = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
         raise ParameterError(f"{name}: point {bad} is {pts[bad].tolist()}; expected finite "
                              "coordinates", option=name)
+    far = beyond_the_earth(pts)
+    if far is not None:
+        raise ParameterError(f"{name}: point {far} is {pts[far].tolist()}; {EARTH_BOUND_TEXT}", option=name)
     return pts
+
+
+#: The largest plan coordinate (m) and height (m) a survey on Earth can have in a projected
+#: CRS: beyond them a value is corrupt (1e308 made every grid run away), not a position.
+MAX_PLAN, MAX_HEIGHT = 1e8, 1e5
+EARTH_BOUND_TEXT = (f"expected metres in a projected CRS: x and y within ±{MAX_PLAN:.0e} m, z within "
+                    f"±{MAX_HEIGHT:.0e} m")
+
+
+def beyond_the_earth(points: np.ndarray) -> int | None:
+    """The first point whose coordinates no survey on Earth can have, or None.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+
+    Returns
+    -------
+    int or None
+
+    Examples
+    --------
+    >>> beyond_the_earth(np.array([[5e5, 4e6, -10.0], [1e308, 0.0, 0.0]]))
+    1
+    """
+    pts = np.asarray(points, np.float64)
+    if not len(pts):
+        return None
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    if max(abs(lo[0]), abs(hi[0]), abs(lo[1]), abs(hi[1])) <= MAX_PLAN and \
+            max(abs(lo[2]), abs(hi[2])) <= MAX_HEIGHT:
+        return None
+    bad = (np.abs(pts[:, :2]) > MAX_PLAN).any(axis=1) | (np.abs(pts[:, 2]) > MAX_HEIGHT)
+    return int(np.flatnonzero(bad)[0])
 
 
 def numbers(name: str, values: Sequence[Any]) -> tuple[float, ...]:

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from .checks import EARTH_BOUND_TEXT, beyond_the_earth
 from .cloud import PointCloud, crs_name, pipeline_input
 from .crs import to_metres
 from .describe import CloudSummary, describe
@@ -191,6 +192,9 @@ def read(
             f"{p}: point {i + 1} has a non-finite coordinate {cloud.xyz[i].tolist()}; "
             "expected finite numbers"
         )
+    far = beyond_the_earth(cloud.xyz)
+    if far is not None:
+        raise InputError(f"{p}: point {far + 1} is {cloud.xyz[far].tolist()}; {EARTH_BOUND_TEXT}")
     if depth_positive:
         xyz = cloud.xyz.copy()
         xyz[:, 2] *= -1.0

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import EARTH_BOUND_TEXT, beyond_the_earth
 from ..cloud import PointCloud
 from ..errors import InputError
 from ..formats import format_of
@@ -80,6 +81,10 @@ def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any], target: Sur
                 cloud = in_metres(cloud, opts.get("crs"))
             if target is not None:
                 cloud = conform(cloud, target.crs, target.first)
+        far = beyond_the_earth(cloud.xyz)
+        if far is not None:
+            raise InputError(f"{path}: point {far + 1} of its chunk {k + 1} is {cloud.xyz[far].tolist()}; "
+                             f"{EARTH_BOUND_TEXT}")
         yield cloud
 
 
