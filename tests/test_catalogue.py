@@ -285,3 +285,15 @@ def test_coordinates_no_survey_can_have_are_refused(tmp_path, capsys):
     path.write_text("1e308 2 -3\n" + "".join(f"{k}.5 {k}.2 -10.{k}\n" for k in range(1, 30)))
     _one_line(capsys, main(["reefs", str(path), "--out", str(tmp_path / "o")]),
               "point 1 is [1e+308, 2.0, -3.0]; expected metres in a projected CRS")
+
+
+def test_meaningless_settings_are_refused_before_any_work(tmp_path, capsys):
+    """A seabed above the water, a pile id twice, a margin below zero were all accepted."""
+    _one_line(capsys, main(["simulate", "jacket", "--seabed", "3", "--out", str(tmp_path / "s")]),
+              "--seabed: 3.0; expected a seabed elevation below -1 m")
+    piles = tmp_path / "piles.csv"
+    piles.write_text("id,x,y,radius,height\n1,0,0,0.5,2\n2,5,0,0.5,2\n1,9,0,0.5,2\n")
+    _one_line(capsys, main(["inject", str(DATA / "pdal_mbf_em300raw.mb56"), "--piles", str(piles),
+                            "--out", str(tmp_path / "i")]), "line 4, column id: 1 again (line 2)")
+    for bad in ("-1", "nan"):
+        _one_line(capsys, main(["soundings", str(tmp_path / "r.json"), "1", "--margin", bad]), "--margin")

@@ -4,12 +4,24 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from .common import subcommand
+
+
+def _margin(text: str) -> float:
+    """A margin: a finite number of metres, zero or more."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r}; expected a finite number of metres, 0 or more")
+    return value
 
 
 def add_parser(sub: Any) -> None:
@@ -22,7 +34,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("result", help="a reefs.json or piles.json written by mbinspect")
     p.add_argument("id", type=int, help="the reef or pile id")
     p.add_argument("--out", metavar="CSV", help="output CSV (default: standard output)")
-    p.add_argument("--margin", type=float, default=0.5, metavar="M",
+    p.add_argument("--margin", type=_margin, default=0.5, metavar="M",
                    help="metres around the object kept (default 0.5)")
     p.set_defaults(func=cmd_soundings)
 

@@ -100,6 +100,7 @@ def _read_rows(path: str | Path, columns: Sequence[str], required: Sequence[str]
         raise InputError(f"{p}: columns {','.join(names) or '(none)'}; expected {','.join(required)} "
                          f"(optional {','.join(optional)})")
     rows = []
+    seen: dict[int, int] = {}
     for line, row in enumerate(reader, start=2):
         vals = {k.strip().lower(): (v or "").strip() for k, v in row.items() if k}
         parsed: dict[str, Any] = {}
@@ -117,6 +118,10 @@ def _read_rows(path: str | Path, columns: Sequence[str], required: Sequence[str]
             wrong = _value_problem(key, parsed[key])
             if wrong:
                 raise InputError(f"{p}: line {line}, column {key}: {raw!r}; expected {wrong}")
+        first = seen.setdefault(parsed["id"], line)
+        if first != line:
+            raise InputError(f"{p}: line {line}, column id: {parsed['id']} again (line {first}); expected "
+                             f"one row per {what}, each with its own id")
         rows.append((line, parsed))
     if not rows:
         raise InputError(f"{p}: no {what}s; expected a row per {what}")

@@ -6,11 +6,20 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from ..checks import fail
+from ..checks import fail, finite
 from ..errors import ParameterError
 from ..options import Options, option
 from ..reef_designs import BUILTIN_DESIGNS
 from .sonar import DEFAULT_SONAR, Sonar, SonarChoice, named_sonar
+
+
+def _under_water(name: str, value: float) -> float:
+    """A seabed below the water surface (a negative elevation), where a sonar can sound it."""
+    value = finite(name, value)
+    if not value < -1.0:
+        raise fail(name, value, "a seabed elevation below -1 m (under the water, beneath the transducer)")
+    return value
+
 
 
 @dataclass(frozen=True)
@@ -24,7 +33,8 @@ class JacketOptions(Options):
     side: float = option(22.0, unit="m", help="design side of the square of piles", check="positive")
     radius: float = option(0.75, unit="m", help="pile radius", check="positive")
     top: float = option(-16.0, unit="m", help="design top elevation", check="finite")
-    seabed: float = option(-21.0, unit="m", help="seabed elevation at the jacket centre", check="finite")
+    seabed: float = option(-21.0, unit="m", help="seabed elevation at the jacket centre",
+                           check=_under_water)
     slope_deg: float = option(0.5, unit="deg", help="seabed slope", check="non_negative")
     sand_wave_amplitude: float = option(0.0, unit="m", help="sand wave half height", check="non_negative")
     roughness: float = option(0.03, unit="m", help="seabed roughness RMS", check="non_negative")
@@ -70,7 +80,8 @@ class ReefFieldOptions(Options):
     reef_scale: float = option(1.0, check="positive",
                                help="as-built size of every reef relative to its design")
     group_spacing: float = option(55.0, unit="m", help="spacing of group centres", check="positive")
-    seabed: float = option(-17.3, unit="m", help="seabed elevation at the field centre", check="finite")
+    seabed: float = option(-17.3, unit="m", help="seabed elevation at the field centre",
+                           check=_under_water)
     slope_deg: float = option(0.3, unit="deg", help="seabed slope", check="non_negative")
     sand_wave_amplitude: float = option(0.0, unit="m", help="sand wave half height", check="non_negative")
     sand_wave_length: float = option(25.0, unit="m", help="sand wave length", check="non_negative")
@@ -122,7 +133,8 @@ class WharfOptions(Options):
                         help="clear distance between neighbouring jackets' nearest piles")
     radius: float = option(0.6, unit="m", help="pile radius", check="positive")
     top: float = option(-8.0, unit="m", help="design top elevation", check="finite")
-    seabed: float = option(-14.0, unit="m", help="seabed elevation at the wharf centre", check="finite")
+    seabed: float = option(-14.0, unit="m", help="seabed elevation at the wharf centre",
+                           check=_under_water)
     slope_deg: float = option(0.5, unit="deg", help="seabed slope", check="non_negative")
     roughness: float = option(0.03, unit="m", help="seabed roughness RMS", check="non_negative")
     position_scatter: float = option(0.03, unit="m", check="non_negative",
