@@ -270,9 +270,10 @@ def beyond_the_earth(points: np.ndarray) -> int | None:
     pts = np.asarray(points, np.float64)
     if not len(pts):
         return None
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    if max(abs(lo[0]), abs(hi[0]), abs(lo[1]), abs(hi[1])) <= MAX_PLAN and \
-            max(abs(lo[2]), abs(hi[2])) <= MAX_HEIGHT:
+    # one column at a time: a reduction along the long axis of an (N, 3) array is slow
+    plan = max(max(abs(float(pts[:, k].min())), abs(float(pts[:, k].max()))) for k in (0, 1))
+    height = max(abs(float(pts[:, 2].min())), abs(float(pts[:, 2].max())))
+    if plan <= MAX_PLAN and height <= MAX_HEIGHT:
         return None
     bad = (np.abs(pts[:, :2]) > MAX_PLAN).any(axis=1) | (np.abs(pts[:, 2]) > MAX_HEIGHT)
     return int(np.flatnonzero(bad)[0])

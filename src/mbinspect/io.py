@@ -19,6 +19,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
@@ -185,8 +186,9 @@ def read(
         raise FileAccessError(f"{p}: cannot be read ({exc.strerror})") from None
     if len(cloud) == 0:
         raise InputError(f"{p}: the file holds no points")
-    bad = ~np.isfinite(cloud.xyz).all(axis=1)
-    if bad.any():
+    finite = math.isfinite(float(cloud.xyz.sum()))  # one sum settles the common case
+    bad = None if finite else ~np.isfinite(cloud.xyz).all(axis=1)
+    if bad is not None and bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise InputError(
             f"{p}: point {i + 1} has a non-finite coordinate {cloud.xyz[i].tolist()}; "

@@ -148,11 +148,18 @@ def rejected_left_out(cloud: PointCloud, keep: bool = False) -> PointCloud:
 def _without_rejected(cloud: PointCloud) -> tuple[PointCloud, np.ndarray]:
     """The cloud without withheld and noise points, and their counts (withheld, noise only,
     all points)."""
-    withheld = np.asarray(cloud.fields.get("withheld", np.zeros(len(cloud), bool)), bool)
+    n = len(cloud)
+    withheld = cloud.fields.get("withheld")
     cls = cloud.fields.get("classification")
-    noise = np.isin(cls, NOISE_CLASSES) if cls is not None else np.zeros(len(cloud), bool)
+    noise = np.zeros(n, bool)
+    if cls is not None:
+        for k in NOISE_CLASSES:
+            noise |= cls == k
+    if withheld is None and not noise.any():  # nothing rejected: the cloud as it is
+        return cloud, np.array([0, 0, n], np.int64)
+    withheld = np.zeros(n, bool) if withheld is None else np.asarray(withheld, bool)
     bad = withheld | noise
-    counts = np.array([withheld.sum(), (noise & ~withheld).sum(), len(cloud)], np.int64)
+    counts = np.array([withheld.sum(), (noise & ~withheld).sum(), n], np.int64)
     fields = {k: np.asarray(v)[~bad] for k, v in cloud.fields.items() if k != "withheld"}
     return replace(cloud, xyz=cloud.xyz[~bad], fields=fields), counts
 
@@ -240,22 +247,27 @@ def check_header(path: Path) -> None:
 
 def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
     """A cloud from laspy points (a whole file or a chunk of one) and the file's header."""
-    xyz = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)])
+    points = las.points if hasattr(las, "points") else las
+    xyz = np.empty((len(points), 3))
+    raw, scales, offsets = points.array, points.scales, points.offsets
+    for k, axis in enumerate("XYZ"):  # scaled into place: no copies stacked again
+        np.multiply(raw[axis], scales[k], out=xyz[:, k])
+        xyz[:, k] += offsets[k]
     dims = set(las.point_format.dimension_names)
     fields: dict[str, np.ndarray] = {}
-    if "intensity" in dims and np.any(las.intensity):
-        fields["intensity"] = np.asarray(las.intensity, dtype=np.float64)
-    if "withheld" in dims and np.any(las.withheld):
-        fields["withheld"] = np.asarray(las.withheld, dtype=bool)
-    if "classification" in dims and np.any(las.classification):
-        fields["classification"] = np.asarray(las.classification, dtype=np.int32)
-    if "point_source_id" in dims and np.any(las.point_source_id):
-        fields["line"] = np.asarray(las.point_source_id, dtype=np.int32)
+    for name, field, kind in (("intensity", "intensity", np.float64), ("withheld", "withheld", bool),
+                              ("classification", "classification", np.int32),
+                              ("point_source_id", "line", np.int32)):
+        if name in dims:
+            values = np.asarray(las[name])
+            if values.any():
+                fields[field] = values.astype(kind)
     for angle in ("scan_angle", "scan_angle_rank"):
-        if angle in dims and np.any(las[angle]):
-            scale = 0.006 if angle == "scan_angle" else 1.0
-            fields["beam_angle"] = np.asarray(las[angle], dtype=np.float64) * scale
-            break
+        if angle in dims:
+            values = np.asarray(las[angle])
+            if values.any():
+                fields["beam_angle"] = values.astype(np.float64) * (0.006 if angle == "scan_angle" else 1.0)
+                break
     for extra in las.point_format.extra_dimension_names:
         values = np.asarray(las[extra])
         if values.ndim == 2:  # an array of values per point (a colour triple): one field each
