@@ -93,8 +93,8 @@ def main() -> None:
             peer, ours = _best(PEER, path), _best(OURS, path)
             assert peer["n"] == ours["n"] == args.points
             rows.append([kind, f"{path.stat().st_size / 1e6:.0f} MB", f"{peer['s']:.2f}", f"{ours['s']:.2f}",
-                         f"{ours['s'] / peer['s']:.2f}", f"{peer['rss'] / 1e9:.2f}", f"{ours['rss'] / 1e9:.2f}",
-                         f"{ours['rss'] / peer['rss']:.2f}"])
+                         f"{ours['s'] / peer['s']:.2f}", f"{peer['rss'] / 1e9:.2f}",
+                         f"{ours['rss'] / 1e9:.2f}", f"{ours['rss'] / peer['rss']:.2f}"])
     print(f"{args.points:,} points, best of 3 fresh processes each")
     print(table(["file", "size", "laspy s", "mbinspect s", "time ratio", "laspy GB", "mbinspect GB",
                  "memory ratio"], rows))
