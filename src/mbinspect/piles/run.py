@@ -29,7 +29,7 @@ from .separate import separate_piles
 from .space import spacings
 from .split import segment_piles
 
-__all__ = ["locate_piles", "measure_piles", "relate_piles", "MeasuredPiles"]
+__all__ = ["locate_piles", "measure_piles", "relate_piles", "MeasuredPiles", "no_pile_found"]
 
 
 def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = None, *,
@@ -82,9 +82,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     opts = PileOptions(**overrides) if options is None else options.replace(**overrides)
     m = measure_piles(data, opts, progress=progress)
     if not m.piles:
-        raise DataError("no pile found: " + "; ".join(
-            f"the candidate near ({r.x:.1f}, {r.y:.1f}) is not a pile ({', '.join(r.reasons)})"
-            for r in m.rejected))
+        raise DataError(no_pile_found(m.rejected))
     parameters = {**opts.to_dict(), "design": design.source if design is not None else None,
                   "joint_radius": None if m.joint_radius is None else m.joint_radius.to_dict(),
                   "input": {"source": m.cloud.source, "n_points": len(m.cloud), "crs": m.cloud.crs},
@@ -216,6 +214,23 @@ def _measured(j: _Judged, thr: dict[int, Any], cloud: PointCloud, seabed: Any, j
         {"intensity_threshold": {new: thr.get(old) for new, old in kept.items()},
          "piles": {new: seg_info[old] for new, old in kept.items() if old in seg_info}},
         tuple(iterations), joint)
+
+
+def no_pile_found(rejected: Sequence[RejectedPile]) -> str:
+    """Why no pile is reported: each candidate set aside, with its reasons.
+
+    Parameters
+    ----------
+    rejected : sequence of RejectedPile
+
+    Returns
+    -------
+    str
+    """
+    if not rejected:
+        return "no pile found among the points above the seabed"
+    return "no pile found: " + "; ".join(
+        f"the candidate near ({r.x:.1f}, {r.y:.1f}) is not a pile ({', '.join(r.reasons)})" for r in rejected)
 
 
 class _Judged(NamedTuple):

@@ -14,7 +14,7 @@ from ..errors import DataError
 from ..pipeline import TilePart
 from .options import PileOptions
 from .results import PileFit, PileResult
-from .run import locate_piles, measure_piles, relate_piles
+from .run import locate_piles, measure_piles, no_pile_found, relate_piles
 from .separate import stable_order
 
 __all__ = ["PILES"]
@@ -61,8 +61,8 @@ class PilesPipeline:
             p, cov = piles[int(k)]
             covs[len(renamed) + 1] = cov
             renamed.append(replace(p, id=len(renamed) + 1))
-        if not piles:
-            raise DataError("no pile found in any tile: " + "; ".join(warnings[:3]))
+        if not piles:  # the answer a whole run gives: the candidates each tile owns
+            raise DataError(no_pile_found([r for t in parts for r in t.others]))
         if options.count is not None and len(piles) != options.count:
             warnings.append(f"{len(piles)} piles found where `count` says {options.count}")
         rejected = [r for t in parts for r in t.others]
