@@ -297,3 +297,18 @@ def test_meaningless_settings_are_refused_before_any_work(tmp_path, capsys):
                             "--out", str(tmp_path / "i")]), "line 4, column id: 1 again (line 2)")
     for bad in ("-1", "nan"):
         _one_line(capsys, main(["soundings", str(tmp_path / "r.json"), "1", "--margin", bad]), "--margin")
+
+
+@pytest.mark.slow
+def test_a_users_mistake_inside_a_tiled_run_is_one_line(tmp_path, capfd):
+    """An empty file among a tiled run's inputs printed Dask's "Compute Failed" block and a
+    remote traceback, and was retried like a dead worker."""
+    good = tmp_path / "a.las"
+    good.write_bytes((DATA / "outside" / "laspy_simple.las").read_bytes())
+    (tmp_path / "empty.xyz").write_text("")
+    code = main(["reefs", str(good), str(tmp_path / "empty.xyz"), "--tiled", "--workers", "2",
+                 "--out", str(tmp_path / "o")])
+    err = capfd.readouterr().err
+    assert code == 2, err
+    assert "empty.xyz: the file is empty" in err
+    assert "Traceback" not in err and "Compute Failed" not in err and err.count("mbinspect: error:") == 1

@@ -10,9 +10,10 @@ import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
-from ..errors import InputWarning, ParameterError
+from ..errors import InputWarning, MBInspectError, ParameterError
 from ..grid import machine_memory
 
 __all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text", "scheduler_address"]
@@ -117,14 +118,35 @@ def map_tasks(fn: Callable[..., Any], items: Sequence[Any], *, client: Any = Non
         return out
     from dask.distributed import as_completed
 
-    futures = [client.submit(fn, item, pure=False, retries=retries, **kwargs) for item in items]
+    futures = [client.submit(_guarded, fn, item, pure=False, retries=retries, **kwargs) for item in items]
     try:
         for done, _ in enumerate(as_completed(futures), start=1):
             tell(done)
-        return list(client.gather(futures))
+        out = list(client.gather(futures))
     finally:
         for f in futures:
             f.release()
+    for got in out:
+        if isinstance(got, _Refused):  # a user's mistake in a task: raised here, as in-process
+            raise got.kind(got.message, option=got.option)
+    return out
+
+
+@dataclass(frozen=True)
+class _Refused:
+    """A task's own error (a bad file, a bad option), carried back as a value: not retried
+    like a dead worker, not logged by Dask as a failed computation with its traceback."""
+
+    kind: type
+    message: str
+    option: str | None
+
+
+def _guarded(fn: Callable[..., Any], item: Any, **kwargs: Any) -> Any:
+    try:
+        return fn(item, **kwargs)
+    except MBInspectError as exc:
+        return _Refused(type(exc), str(exc), exc.option)
 
 
 def eta_text(seconds: float | None) -> str:
