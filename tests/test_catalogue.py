@@ -312,3 +312,20 @@ def test_a_users_mistake_inside_a_tiled_run_is_one_line(tmp_path, capfd):
     assert code == 2, err
     assert "empty.xyz: the file is empty" in err
     assert "Traceback" not in err and "Compute Failed" not in err and err.count("mbinspect: error:") == 1
+
+
+def test_the_report_counts_specks_and_lists_the_rest_with_their_reasons(tmp_path):
+    """101 of a report's 109 "other objects" were single-sounding spikes, listed one by one."""
+    from mbinspect.reefs.results import OtherObject
+    from mbinspect.simulate import simulate
+
+    sim = simulate("reef-field", seed=2, groups="cross1", per_group=4, ping_spacing=0.8, close_pairs=0)
+    result = extract_reefs(sim.cloud)
+    specks = tuple(OtherObject(1.0 * k, 0.0, 0.5, 0.01, -16.8, 1, "smaller than `min_area` 1 m²")
+                   for k in range(40))
+    rock = OtherObject(5.0, 5.0, 0.9, 2.5, -16.4, 150, "a dome: a rock, not a reef")
+    busy = dataclasses.replace(result, others=specks + (rock,))
+    write_reef_outputs(busy, sim.cloud.xyz, tmp_path, figures=False)
+    page = (tmp_path / "report.html").read_text()
+    assert "40 specks of 2 soundings or fewer" in page
+    assert page.count("smaller than `min_area`") == 0 and "a dome: a rock, not a reef" in page

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -282,17 +282,29 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
     rows = [_reef_row(r) for r in d["reefs"]]
     sections.append(("Reefs", html_table(rows, list(head), list(head.values()))))
     if d["others"]:
-        others = [{"x": number(o["x"], ".2f"), "y": number(o["y"], ".2f"),
-                   "height": number(o["height"], ".2f"), "area": number(o["area"], ".2f"),
-                   "n_points": o["n_points"]} for o in d["others"]]
-        sections.append(("Other objects", html_table(others, ["x", "y", "height", "area", "n_points"],
-                                                     ["easting (m)", "northing (m)", "height (m)",
-                                                      "area (m²)", "soundings"])))
+        sections.append(("Other objects", _others_table(d["others"])))
     listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"]})
     sections.append(("Filters and seabed", f"<pre>{html.escape(listing)}</pre>"))
     sections.append(("Input and software", provenance_table(d["parameters"])))
     sections.append(("Parameters", parameter_table(d["parameters"])))
     return sections
+
+
+#: Other objects of this many soundings or fewer are specks (noise spikes): counted, not listed.
+SPECK_SOUNDINGS = 2
+
+
+def _others_table(others: Sequence[Mapping[str, Any]]) -> str:
+    """The other objects with their reasons, specks of one or two soundings counted in one line."""
+    specks = [o for o in others if o["n_points"] <= SPECK_SOUNDINGS]
+    rows = [{"x": number(o["x"], ".2f"), "y": number(o["y"], ".2f"), "height": number(o["height"], ".2f"),
+             "area": number(o["area"], ".2f"), "n_points": o["n_points"], "reason": o.get("reason", "")}
+            for o in others if o["n_points"] > SPECK_SOUNDINGS]
+    note = (f"<p>{len(specks)} specks of {SPECK_SOUNDINGS} soundings or fewer (noise spikes standing off the "
+            "seabed) are counted here, not listed; reefs.json lists each.</p>") if specks else ""
+    heads = ["easting (m)", "northing (m)", "height (m)", "area (m²)", "soundings", "why not a reef"]
+    table = html_table(rows, ["x", "y", "height", "area", "n_points", "reason"], heads) if rows else ""
+    return note + table
 
 
 def _scoring_sections(ev: Mapping[str, Any]) -> list[tuple[str, str]]:
