@@ -329,3 +329,11 @@ def test_the_report_counts_specks_and_lists_the_rest_with_their_reasons(tmp_path
     page = (tmp_path / "report.html").read_text()
     assert "40 specks of 2 soundings or fewer" in page
     assert page.count("smaller than `min_area`") == 0 and "a dome: a rock, not a reef" in page
+
+
+def test_all_pings_outside_the_navigation_are_said(recwarn):
+    """Two of the Belgica line's nine pings lie 2 s past its last position fix: placed at the
+    nearest fix as before, now with a warning."""
+    read(DATA / "Belgica_0077.all")
+    said = [str(w.message) for w in recwarn if "outside the navigation's time span" in str(w.message)]
+    assert said and "2 of 9 pings lie up to 2.0 s outside" in said[0]

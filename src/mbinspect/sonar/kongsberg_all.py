@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import datetime as dt
 import struct
+import warnings
 
 import numpy as np
 
+from ..errors import InputWarning
 from .common import Datagrams, Soundings, offsets_to_geographic
 
 __all__ = ["read_all"]
@@ -147,6 +149,12 @@ def _assemble(path: str, order: str, pings: list[tuple], beams: list[dict[str, n
     info = np.array([q[:5] for q in pings], dtype=np.float64)
     counts = np.array([q[5] for q in pings])
     t = _seconds(info[:, 0], info[:, 1])
+    outside = np.maximum(pt[0] - t, t - pt[-1])
+    if (outside > 1.0).any():  # np.interp holds the end fixes: say how far that reaches
+        warnings.warn(f"{path}: {int((outside > 1.0).sum())} of {len(t)} pings lie up to "
+                      f"{float(outside.max()):.1f} s outside the navigation's time span; they are placed at "
+                      "its first or last fix, off by as far as the ship sailed meanwhile", InputWarning,
+                      stacklevel=4)
     lat_p = np.interp(t, pt, plat)
     lon_p = np.interp(t, pt, np.unwrap(plon, period=360.0))
     b = {k: np.concatenate([q[k] for q in beams]) for k in beams[0]}
