@@ -337,3 +337,16 @@ def test_all_pings_outside_the_navigation_are_said(recwarn):
     read(DATA / "Belgica_0077.all")
     said = [str(w.message) for w in recwarn if "outside the navigation's time span" in str(w.message)]
     assert said and "2 of 9 pings lie up to 2.0 s outside" in said[0]
+
+
+def test_all_datagrams_that_fail_their_checksum_are_left_out(tmp_path):
+    """A corrupt .all record that still parsed put soundings kilometres away or 650 m deep
+    without a word: the checksum every datagram carries is now checked."""
+    data = bytearray((DATA / "Belgica_0077.all").read_bytes())
+    at = data.find(b"\x02X")  # the first XYZ88 datagram: flip a byte of its first beam's depth
+    data[at + 40] ^= 0x5A
+    path = tmp_path / "flipped.all"
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="1 depth or position datagrams fail their checksum"):
+        cloud = read(path)
+    assert 0 < len(cloud) < 2304

@@ -73,6 +73,7 @@ def read_all(path: str) -> Soundings:
     pings: list[tuple] = []
     beams: list[dict[str, np.ndarray]] = []
     model = None
+    corrupt = 0
     off, n = 0, len(data)
     while off + 4 <= n:
         size, = struct.unpack_from(order + "I", data, off)
@@ -80,7 +81,9 @@ def read_all(path: str) -> Soundings:
             raise dg.fail(f"a datagram of {size} bytes; expected one that fits the file (truncated "
                           "or corrupt)", off)
         kind = data[off + 5]
-        if kind in (0x58, 0x44, 0x50):  # X, D, P
+        if kind in (0x58, 0x44, 0x50) and not _checksum_holds(data, off, size, order):
+            corrupt += 1  # a datagram whose bytes changed since the sonar wrote it: left out
+        elif kind in (0x58, 0x44, 0x50):  # X, D, P
             model, date, ms, counter, serial = struct.unpack_from(order + "HIIHH", data, off + 6)
             body = off + 20
             if kind == 0x50:
@@ -92,6 +95,9 @@ def read_all(path: str) -> Soundings:
             else:
                 pings.append(_depth_d(dg, order, off, size, date, ms, counter, model, beams))
         off += 4 + size
+    if corrupt:
+        warnings.warn(f"{path}: {corrupt} depth or position datagrams fail their checksum (their bytes "
+                      "changed since the sonar wrote them) and were left out", InputWarning, stacklevel=4)
     if not pings:
         raise dg.fail("no depth datagram (XYZ88 'X' or 'D'); expected soundings (navigation or "
                       "other records only)")
@@ -135,6 +141,17 @@ def _depth_d(dg: Datagrams, order: str, off: int, size: int, date: int, ms: int,
     beams.append({"z": z.astype(np.float64), "y": b["y"] * (xyres / 100.0), "x": b["x"] * (xyres / 100.0),
                   "bs": b["bs"] * 0.5, "valid": z != 0, "beam": b["num"].astype(np.int64) - 1})
     return (date, ms, counter, heading / 100.0, tx_depth, nvalid)
+
+
+def _checksum_holds(data: bytes, off: int, size: int, order: str) -> bool:
+    """Whether a datagram's checksum (the sum of its bytes between STX and ETX) holds; one
+    without an ETX where it belongs holds nothing to check."""
+    end = off + 4 + size
+    if data[end - 3] != 0x03:
+        return True
+    stored, = struct.unpack_from(order + "H", data, end - 2)
+    body = np.frombuffer(data, np.uint8, end - 3 - (off + 5), off + 5)
+    return (int(body.sum(dtype=np.uint64)) & 0xFFFF) == stored
 
 
 def _assemble(path: str, order: str, pings: list[tuple], beams: list[dict[str, np.ndarray]],
