@@ -350,3 +350,15 @@ def test_all_datagrams_that_fail_their_checksum_are_left_out(tmp_path):
     with pytest.warns(UserWarning, match="1 depth or position datagrams fail their checksum"):
         cloud = read(path)
     assert 0 < len(cloud) < 2304
+
+
+def test_a_reef_no_given_design_fits_keeps_its_free_form_measures():
+    """A candidate that none of the designs given fits is judged by its shape, not set aside
+    for the want of a design (the README's promise: a partial --design list hides no reef)."""
+    from mbinspect.reefs.options import ReefOptions
+    from mbinspect.reefs.reject import Candidate, Context, why_not_a_reef
+    from mbinspect.reefs.results import Reef
+
+    reef = Reef(1, 0.0, 0.0, -17.3, -16.1, 1.2, 4.2, 3.0, 3.0, 0.0, 4.0, 10.8, 500, design="")
+    assert why_not_a_reef(Candidate(reef, np.arange(9)), Context(np.zeros((0, 3))),
+                          ReefOptions(design="cross2")) is None

@@ -1,6 +1,8 @@
 """Stage 7 of the reefs: only reefs are reefs. Each rule looks at one measured candidate and
-says why it is not a reef (a bump, a ridge, a rock no design fits, a reef seen by too few
-pings, a dome), or None; the first reason given sets the candidate aside among the others.
+says why it is not a reef (a bump, a ridge, a design that fits only at another size or poorly,
+a reef seen by too few pings, a dome), or None; the first reason given sets the candidate
+aside among the others. A candidate that none of the designs given fits keeps its free-form
+measures (a partial design list never hides a reef): its shape judges it.
 
 A rule is ``(candidate, context, options) -> str | None``; a new rule is one function and one
 entry in :data:`RULES`, as :mod:`mbinspect.piles.accept` is for piles.
@@ -100,13 +102,6 @@ def ridge(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
     return None
 
 
-def no_design(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
-    """Designs were given and none fits its plan."""
-    if options.designs and not c.reef.design:
-        return "no design fits its plan: a rock or other object, not a reef of the designs given"
-    return None
-
-
 def design_misfit(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
     """The design fitted to it fits at another size, fits poorly, or stands far taller."""
     reef = c.reef
@@ -181,7 +176,7 @@ def rock_shape(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
 
 
 #: The rules, in the order their reasons are given.
-RULES: tuple[Rule, ...] = (too_low, ridge, no_design, design_misfit, few_pings, rock_shape)
+RULES: tuple[Rule, ...] = (too_low, ridge, design_misfit, few_pings, rock_shape)
 
 
 def why_not_a_reef(candidate: Candidate, context: Context, options: ReefOptions,
