@@ -362,3 +362,25 @@ def test_a_reef_no_given_design_fits_keeps_its_free_form_measures():
     reef = Reef(1, 0.0, 0.0, -17.3, -16.1, 1.2, 4.2, 3.0, 3.0, 0.0, 4.0, 10.8, 500, design="")
     assert why_not_a_reef(Candidate(reef, np.arange(9)), Context(np.zeros((0, 3))),
                           ReefOptions(design="cross2")) is None
+
+
+@pytest.mark.parametrize("suffix", [".xyz", ".csv", ".las"])
+def test_a_sonar_file_written_out_reads_back_whole(tmp_path, suffix):
+    """Written as ASCII, a sonar line's times came back as '1.668e+09', which its own reader
+    refused ("is not a time"), its beam numbers as beam angles; as LAS, a beam without
+    backscatter was cast from NaN."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        line = read(DATA / "Belgica_0077.all")
+    path = tmp_path / f"line{suffix}"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        from mbinspect.io import write
+
+        write(line, path)
+    back = read(path, z_up=True) if suffix != ".las" else read(path)
+    assert np.abs(back.xyz - line.xyz).max() <= 5e-4
+    if suffix != ".las":
+        assert sorted(back.fields) == sorted(line.fields)
+        for k, v in line.fields.items():
+            assert np.allclose(np.asarray(v, float), back.fields[k], atol=1e-6, equal_nan=True), k

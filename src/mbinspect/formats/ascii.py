@@ -59,11 +59,21 @@ def _read_ascii(p: Path, *, columns: str | Sequence[str] | None, delimiter: str 
     return PointCloud(xyz, fields, source=str(p), crs=out_crs, meta=meta)
 
 
+def _field_format(name: str, values: np.ndarray) -> str:
+    """Each field written as it reads back: whole numbers whole, times to the microsecond
+    (``%.6g`` rounded a time to the 1000 s), other values to nine significant digits."""
+    v = np.asarray(values)
+    if v.dtype.kind in "iub" or (v.dtype.kind == "f" and np.isfinite(v).all() and np.all(v == np.round(v))
+                                 and np.abs(v).max(initial=0) < 2**53):
+        return "%d"
+    return "%.6f" if name == "time" else "%.9g"
+
+
 def _write_ascii(cloud: PointCloud, path: Path, precision: int) -> None:
     names = ["x", "y", "z"] + [k for k in cloud.fields]
     table = np.column_stack([cloud.xyz] + [np.asarray(v, np.float64) for v in cloud.fields.values()])
     delim = "," if path.suffix.lower() == ".csv" else " "
-    fmt = [f"%.{precision}f"] * 3 + ["%.6g"] * len(cloud.fields)
+    fmt = [f"%.{precision}f"] * 3 + [_field_format(k, v) for k, v in cloud.fields.items()]
     np.savetxt(path, table, fmt=fmt, delimiter=delim, header=delim.join(names), comments="")
 
 

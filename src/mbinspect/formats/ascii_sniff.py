@@ -23,7 +23,7 @@ ALIASES: dict[str, str] = {
     "z": "z", "elevation": "z", "height": "z", "h": "z", "depth": "z", "d": "z",
     "intensity": "intensity", "backscatter": "intensity", "bs": "intensity",
     "amplitude": "intensity", "reflectivity": "intensity", "i": "intensity",
-    "beam_angle": "beam_angle", "angle": "beam_angle", "beam": "beam_angle",
+    "beam_angle": "beam_angle", "angle": "beam_angle", "beam": "beam", "beam_number": "beam",
     "scan_angle": "beam_angle",
     "line": "line", "line_id": "line", "linename": "line", "line_name": "line",
     "ping": "ping", "ping_id": "ping", "ping_number": "ping",
@@ -287,9 +287,13 @@ def parse_time(text: str | bytes) -> float:
     True
     >>> parse_time("2015-07-08") + parse_time("23:52:15.000000") == parse_time("2015-07-08T23:52:15")
     True
+    >>> parse_time("1436399535.250000")  # seconds since 1970, as mbinspect writes them
+    1436399535.25
     """
     s = text.decode() if isinstance(text, bytes) else text
     s = s.strip().strip('"')
+    if re.fullmatch(r"[-+]?\d+(\.\d*)?([eE][-+]?\d+)?", s):  # seconds since 1970, as mbinspect writes them
+        return float(s)
     if re.fullmatch(r"\d{1,2}:\d{2}(:\d{2}(\.\d*)?)?", s):  # a time of day, its date in a date column
         h, m, *rest = s.split(":")
         return int(h) * 3600.0 + int(m) * 60.0 + (float(rest[0]) if rest else 0.0)

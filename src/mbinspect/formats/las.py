@@ -306,7 +306,9 @@ def _write_las(cloud: PointCloud, path: Path, precision: int) -> None:
     las = laspy.LasData(header)
     las.x, las.y, las.z = cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.xyz[:, 2]
     if "intensity" in cloud.fields:
-        las.intensity = np.clip(np.round(cloud.fields["intensity"]), 0, 65535).astype(np.uint16)
+        # NaN (a beam without backscatter) as 0 in the integer field; intensity_db keeps it exactly
+        level = np.nan_to_num(np.round(cloud.fields["intensity"]))
+        las.intensity = np.clip(level, 0, 65535).astype(np.uint16)
     if "classification" in cloud.fields:
         las.classification = np.clip(cloud.fields["classification"], 0, 255).astype(np.uint8)
     if "line" in cloud.fields:
