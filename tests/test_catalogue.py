@@ -384,3 +384,15 @@ def test_a_sonar_file_written_out_reads_back_whole(tmp_path, suffix):
         assert sorted(back.fields) == sorted(line.fields)
         for k, v in line.fields.items():
             assert np.allclose(np.asarray(v, float), back.fields[k], atol=1e-6, equal_nan=True), k
+
+
+def test_data_that_cannot_support_an_answer_say_so_alike_in_memory_and_in_tiles(tmp_path, capsys):
+    """A deep line (an EM710 at 109 m: a 1° beam lights a 1.9 m footprint) stopped with the
+    reason in memory, but ended with no reef and exit 0 in tiles, each tile's refusal a warning."""
+    line = DATA / "ets_all_he_-3092155654265012286.all"
+    errors = []
+    for extra in ([], ["--tiled", "--workers", "1"]):
+        code = main(["reefs", str(line), "--no-figures", "--out", str(tmp_path / f"o{len(extra)}"), *extra])
+        err = _one_line(capsys, code, "too coarse to resolve objects")
+        errors.append(err.splitlines()[-1].split(" (so says")[0])
+    assert errors[0] == errors[1]

@@ -314,7 +314,7 @@ def _run_tile(task: TileTask) -> TileOutcome:
         part = task.pipeline.run_tile(cloud, task.options, mine)
     except (DataError, NotEnoughPointsError) as exc:
         where = f"tile {task.key[0]},{task.key[1]} ({x0:.0f}–{x1:.0f} E, {y0:.0f}–{y1:.0f} N)"
-        part = TilePart(warnings=(f"{where}: {exc}",))
+        part = TilePart(warnings=(f"{where}: {exc}",), stats={"refused": str(exc), "n_own": int(own.sum())})
     else:
         part = replace(part, stats={**part.stats, "n_own": int(own.sum())})
     return TileOutcome(task.key, part, len(cloud), sample, {})
@@ -338,6 +338,11 @@ def _thin(xyz: np.ndarray, cell: float = 0.5) -> np.ndarray:
 def _merge(pipe: Pipeline, outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
            files: Sequence[Path], bins: Sequence[FileBins], notes: Sequence[str]) -> Any:
     """The tiles' parts as one result, merged by the pipeline with the survey's parameters."""
+    refused = [o.part.stats["refused"] for o in outcomes if "refused" in o.part.stats]
+    if refused and len(refused) == sum(1 for o in outcomes if o.part.stats.get("n_own", 0) > 0):
+        # every tile with soundings of its own says the data cannot support an answer: the
+        # answer a whole run gives
+        raise DataError(f"{refused[0]} (so says every tile of the survey: {len(refused)})")
     warnings = list(notes) + [w for o in outcomes for w in o.part.warnings]
     parameters = {**options.to_dict(),
                   "input": {"source": f"{len(files)} files", "n_points": sum(b.n for b in bins),
