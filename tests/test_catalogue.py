@@ -365,13 +365,15 @@ def test_a_reef_no_given_design_fits_keeps_its_free_form_measures():
 
 
 @pytest.mark.parametrize("suffix", [".xyz", ".csv", ".las"])
-def test_a_sonar_file_written_out_reads_back_whole(tmp_path, suffix):
+@pytest.mark.parametrize("name", ["Belgica_0077.all", "gsf_EX1502L2_0175.gsf"])
+def test_a_sonar_file_written_out_reads_back_whole(tmp_path, suffix, name):
     """Written as ASCII, a sonar line's times came back as '1.668e+09', which its own reader
     refused ("is not a time"), its beam numbers as beam angles; as LAS, a beam without
-    backscatter was cast from NaN."""
+    backscatter was cast from NaN, and read back as ASCII its NaN was refused."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        line = read(DATA / "Belgica_0077.all")
+        line = read(DATA / name)
+    line.fields["intensity"][:10] = np.nan  # beams without backscatter, as GSF3_08 has
     path = tmp_path / f"line{suffix}"
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)

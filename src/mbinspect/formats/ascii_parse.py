@@ -158,12 +158,17 @@ def _locate_error(path: Path, table: AsciiTable) -> str:
     return f"{path}: could not be parsed as a {table.ncols}-column point file"
 
 
+#: The columns that must hold finite numbers (a field may hold NaN: a beam without backscatter).
+COORDINATES = ("x", "y", "z", "lon", "lat")
+
+
 def _locate_nonfinite(path: Path, table: AsciiTable, row: int) -> str:
     """Name the line and column of the first non-finite value (data row ``row``)."""
     for seen, (lineno, cells) in enumerate(_data_lines(path, table)):
         if seen == row:
-            for col, cell in enumerate(cells, start=1):
-                if is_number(cell, table.decimal) and not math.isfinite(float(cell.replace(",", "."))):
+            for col, (cell, name) in enumerate(zip(cells, table.names, strict=False), start=1):
+                if name in COORDINATES and is_number(cell, table.decimal) and \
+                        not math.isfinite(float(cell.replace(",", "."))):
                     return (f"{path}, line {lineno}, column {col}: {cell!r} is not a finite number; "
                             "expected a finite value")
             break
@@ -269,12 +274,13 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
                              "expected another `delimiter`")
         chunks = [(str(lf), a, b, table) for a, b in _chunk_bounds(lf, table.data_start, CHUNK_BYTES)]
         used = [n for n in table.names if n is not None]
+        coords = [used.index(n) for n in (("lon", "lat", "z") if table.geographic else ("x", "y", "z"))]
         out = _Columns(used, _line_count(lf, table.data_start), table.geographic)
         with _parsed(chunks) as results:
             for k, r in enumerate(results):
                 if isinstance(r, str):
                     raise InputError(_locate_error(lf, table).replace(str(lf), str(path)))
-                bad = ~np.isfinite(r).all(axis=1)
+                bad = ~np.isfinite(r[:, coords]).all(axis=1)  # a field may be NaN (no backscatter)
                 if bad.any():
                     where = _locate_nonfinite(lf, table, out.rows + int(np.flatnonzero(bad)[0]))
                     raise InputError(where.replace(str(lf), str(path)))
