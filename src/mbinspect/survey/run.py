@@ -338,8 +338,9 @@ def _thin(xyz: np.ndarray, cell: float = 0.5) -> np.ndarray:
 def _merge(pipe: Pipeline, outcomes: Sequence[TileOutcome], options: Any, extra: Mapping[str, Any],
            files: Sequence[Path], bins: Sequence[FileBins], notes: Sequence[str]) -> Any:
     """The tiles' parts as one result, merged by the pipeline with the survey's parameters."""
-    refused = [o.part.stats["refused"] for o in outcomes if "refused" in o.part.stats]
-    if refused and len(refused) == sum(1 for o in outcomes if o.part.stats.get("n_own", 0) > 0):
+    holding = [o for o in outcomes if o.part.stats.get("n_own", 0) > 0]  # tiles with soundings of their own
+    refused = [o.part.stats["refused"] for o in holding if "refused" in o.part.stats]
+    if refused and len(refused) == len(holding):
         # every tile with soundings of its own says the data cannot support an answer: the
         # answer a whole run gives
         raise DataError(f"{refused[0]} (so says every tile of the survey: {len(refused)})")
