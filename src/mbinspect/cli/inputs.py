@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import hashlib
 import os
 import sys
 import time
@@ -175,11 +174,6 @@ def run_pipeline(kind: str, args: argparse.Namespace, files: Sequence[Path], opt
 
 def file_records(files: Sequence[Path]) -> list[dict[str, Any]]:
     """Name, size and sha256 of each input file."""
-    out = []
-    for path in files:
-        h = hashlib.sha256()
-        with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                h.update(block)
-        out.append({"file": str(path), "size": os.path.getsize(path), "sha256": h.hexdigest()})
-    return out
+    from ..outputs import sha256_of
+
+    return [{"file": str(path), "size": os.path.getsize(path), "sha256": sha256_of(path)} for path in files]

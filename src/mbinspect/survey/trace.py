@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..cloud import ping_ranges, sources
+from ..outputs import sha256_of
 
 __all__ = ["ping_ranges", "sources", "object_soundings"]
 
@@ -55,7 +57,7 @@ def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
     opts = {k: v for k, v in (read_options or {}).items() if v is not None}
     for src in srcs:
         want = (recorded or {}).get(src["file"])
-        if want is not None and _sha256(src["file"]) != want:
+        if want is not None and Path(src["file"]).is_file() and sha256_of(src["file"]) != want:
             raise InputError(f"{src['file']}: not the file the result was made from (its sha256 differs "
                              "from the one the result recorded); expected the survey's own files")
         cloud = read(src["file"], **opts)
@@ -84,16 +86,3 @@ def object_soundings(kind: str, obj: Mapping[str, Any], *, margin: float = 0.5,
                     row[name] = cloud.fields[name][r].item()
             out.append(row)
     return out
-
-
-def _sha256(path: str) -> str | None:
-    import hashlib
-
-    h = hashlib.sha256()
-    try:
-        with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 22), b""):
-                h.update(block)
-    except OSError:
-        return None  # read() names a missing file
-    return h.hexdigest()
