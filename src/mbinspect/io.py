@@ -54,6 +54,7 @@ __all__ = [
     "crs_name",
     "describe",
     "in_metres",
+    "sha256_of",
 ]
 
 
@@ -275,19 +276,30 @@ def write(
         row.write(cloud, tmp, precision)
 
 
+def sha256_of(path: str | os.PathLike[str]) -> str:
+    """The sha256 of a file's bytes (hex), read a few megabytes at a time: what a result
+    records of its inputs, and what a command building on it checks.
 
+    Parameters
+    ----------
+    path : path-like
 
+    Returns
+    -------
+    str
 
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
+    >>> _ = p.write_bytes(b"abc")
+    >>> sha256_of(p)[:16]
+    'ba7816bf8f01cfea'
+    """
+    import hashlib
 
-
-
-
-
-
-
-
-
-
-
-
-
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 22), b""):
+            h.update(block)
+    return h.hexdigest()

@@ -47,7 +47,6 @@ __all__ = [
     "discard_unfinished",
     "Recorded",
     "record_from",
-    "sha256_of",
 ]
 
 _STAGING = ".mbinspect-"  # marks the staging folders this package owns
@@ -385,32 +384,3 @@ def record_from(cls: type, d: Mapping[str, Any], **given: Any) -> Any:
             v = tuple(tuple(x) if isinstance(x, list) and "tuple[tuple" in kind else x for x in v)
         kw[f.name] = v
     return cls(**kw, **given)
-
-
-def sha256_of(path: str | os.PathLike[str]) -> str:
-    """The sha256 of a file's bytes (hex), read a few megabytes at a time: what a result
-    records of its inputs, and what a command building on it checks.
-
-    Parameters
-    ----------
-    path : path-like
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
-    >>> _ = p.write_bytes(b"abc")
-    >>> sha256_of(p)[:16]
-    'ba7816bf8f01cfea'
-    """
-    import hashlib
-
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 22), b""):
-            h.update(block)
-    return h.hexdigest()

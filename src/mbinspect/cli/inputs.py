@@ -174,6 +174,6 @@ def run_pipeline(kind: str, args: argparse.Namespace, files: Sequence[Path], opt
 
 def file_records(files: Sequence[Path]) -> list[dict[str, Any]]:
     """Name, size and sha256 of each input file."""
-    from ..outputs import sha256_of
+    from ..io import sha256_of
 
     return [{"file": str(path), "size": os.path.getsize(path), "sha256": sha256_of(path)} for path in files]

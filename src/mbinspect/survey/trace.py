@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..cloud import ping_ranges, sources
-from ..outputs import sha256_of
+from ..io import sha256_of
 
 __all__ = ["ping_ranges", "sources", "object_soundings"]
 
