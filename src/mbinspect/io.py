@@ -134,9 +134,10 @@ def read(
         ASCII only: the column delimiter. Default: sniffed from the first data
         line (comma, semicolon, tab or whitespace).
     crs : str, optional
-        Sonar formats (GSF, KMALL, .all): the projected CRS to put the soundings in
-        (default: the UTM zone of the data). Other formats: the CRS of the file's
-        coordinates when the file does not say it.
+        The projected metre CRS to put the soundings in, reprojecting a file that declares
+        another (:func:`mbinspect.crs.to_metres`; default: the file's own CRS, or the UTM
+        zone of data in degrees or feet). For a file that declares none: the CRS of its
+        coordinates.
     keep_rejected : bool
         Sonar formats: keep the soundings the sonar or the file rejected (the ``valid``
         field says which); default False.

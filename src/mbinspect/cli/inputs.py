@@ -32,9 +32,10 @@ def add_input(p: argparse.ArgumentParser, many: bool = False) -> None:
     g.add_argument("--depth-positive", action="store_true",
                    help="z in the file is depth, positive down (it is negated)")
     g.add_argument("--crs", metavar="CRS",
-                   help="sonar files (GSF, KMALL, .all): the projected CRS to put the soundings in "
-                        "(default: the UTM zone of the data); other files: the CRS of their "
-                        "coordinates when the file does not say it (e.g. EPSG:32631)")
+                   help="the projected metre CRS to put the soundings in, reprojecting a file that "
+                        "declares another (default: the file's own, or the UTM zone of data in degrees "
+                        "or feet); for a file that declares none, the CRS of its coordinates "
+                        "(e.g. EPSG:32631)")
     g.add_argument("--decimal", choices=[".", ","], help="ASCII decimal mark (default: sniffed)")
     g.add_argument("--z-up", action="store_true",
                    help="z in the file is elevation, positive up (settles a mostly positive z)")
