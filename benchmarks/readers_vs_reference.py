@@ -7,7 +7,10 @@ the reference adds the along/across offsets of .all and GSF soundings in the UTM
 if grid north were true north, while mbinspect turns them by the true heading on the
 ellipsoid; turning the reference's offsets by the grid convergence and scaling them by the
 UTM scale factor removes that difference (KMALL positions are per sounding in the file: no
-correction). Files a reader refuses are listed with the reason.
+correction). Files a reader refuses are listed with the reason. The XTF file has no decode
+in ``../shared/real/reference``: it is decoded here by ``tools/xtf_reference.py`` (pyxtf's
+framing, its own BTH0 parse, pyproj's geodesic) when pyxtf is installed; its positions are
+per sounding (no correction).
 """
 
 from __future__ import annotations
@@ -37,6 +40,16 @@ def put_right(ref: dict[str, np.ndarray], crs: str) -> np.ndarray:
                             ref["sy"] + k * (ox * np.sin(g) + oy * np.cos(g))])
 
 
+def _xtf_reference(path: Path) -> dict[str, np.ndarray] | None:
+    """The XTF file decoded by tools/xtf_reference.py (None without pyxtf)."""
+    try:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+        from xtf_reference import decode
+    except ImportError:
+        return None
+    return decode(str(path))
+
+
 def main() -> None:
     rows = []
     for path in sorted((REAL / "files").iterdir()):
@@ -50,11 +63,12 @@ def main() -> None:
             rows.append([path.name[:34], fmt, "refused", "-", "-", "-", "-", "-", why])
             continue
         ref_path = REAL / "reference" / f"{path.stem}.npz"
-        if not ref_path.exists():
+        ref = _xtf_reference(path) if fmt == "xtf" else None
+        if ref is None and not ref_path.exists():
             rows.append([path.name[:34], fmt, f"{len(s)} / {int(s.fields['valid'].sum())}", "no decode",
                          "-", "-", "-", "-", ""])
             continue
-        ref = dict(np.load(ref_path))
+        ref = ref if ref is not None else dict(np.load(ref_path))
         valid = s.fields["valid"]
         agree = len(s) == len(ref["xyz"]) and bool((valid == ref["valid"].astype(bool)).all())
         c = to_cloud(s, keep_rejected=True)
@@ -62,7 +76,7 @@ def main() -> None:
         v = valid & ref["valid"].astype(bool)
         dz = np.abs(c.xyz[v, 2] - ref["xyz"][v, 2]).max()
         raw = np.hypot(*(c.xyz[v, :2] - ref["xyz"][v, :2]).T).max()
-        right = raw if fmt == "kmall" else np.hypot(*(c.xyz[v, :2] - put_right(ref, crs)[v]).T).max()
+        right = raw if fmt in ("kmall", "xtf") else np.hypot(*(c.xyz[v, :2] - put_right(ref, crs)[v]).T).max()
         rows.append([path.name[:34], fmt, f"{len(s)} / {int(valid.sum())}",
                      f"{len(ref['xyz'])} / {int(ref['valid'].sum())}", "yes" if agree else "NO",
                      f"{100 * dz:.2f}", f"{raw:.2f}", f"{right:.3f}", ""])

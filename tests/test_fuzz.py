@@ -20,7 +20,7 @@ from mbinspect.io import read
 DATA = Path(__file__).parent / "data"
 FILES = [DATA / "Belgica_0077.all", DATA / "pdal_mbf_em300raw.mb56",
          DATA / "ets_kmall_OS03_-4033476991022010987.kmall", DATA / "gsf_EX1502L2_0175.gsf",
-         DATA / "GSF3_09_test_file.gsf",
+         DATA / "GSF3_09_test_file.gsf", DATA / "R2Testing_0009_first40.xtf",
          DATA / "outside" / "gsfpy_0059_EX1811_EM302_2pings.gsf", DATA / "outside" / "laspy_simple.las",
          DATA / "outside" / "laspy_simple.laz", DATA / "outside" / "laspy_1_4_w_evlr.las",
          DATA / "outside" / "pdal_ply_simple_binary.ply", DATA / "outside" / "pdal_ply_simple_text.ply"]

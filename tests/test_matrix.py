@@ -28,10 +28,11 @@ DATA = Path(__file__).parent / "data"
 CRS = "EPSG:32617"
 EXPORTS = ["xyz-header", "xyz-bare", "decimal-comma", "lonlat", "las", "laz", "ply", "npz"]
 SONAR = ["Belgica_0077.all", "pdal_mbf_em300raw.mb56", "ets_kmall_OS03_-4033476991022010987.kmall",
-         "gsf_EX1502L2_0175.gsf"]
-#: Lines dense enough to measure two piles of 0.5 m (the EM3000 line: 67 pings at 4.5 m);
+         "gsf_EX1502L2_0175.gsf", "R2Testing_0009_first40.xtf"]
+#: Lines dense enough to measure two piles of 0.5 m (the EM3000 line: 67 pings at 4.5 m; the R2Sonic
+#: strip: 40 pings at 10.5 m);
 #: the others (9 pings; a narrow strip) stop with the reason, alike in memory and tiles.
-FINDS_PILES = {"pdal_mbf_em300raw.mb56"}
+FINDS_PILES = {"pdal_mbf_em300raw.mb56", "R2Testing_0009_first40.xtf"}
 #: Deep files take no pile (1.5 km of water): info and reefs only.
 DEEP = {"gsf_EX1502L2_0175.gsf"}
 

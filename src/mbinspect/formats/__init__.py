@@ -10,7 +10,7 @@ Examples
 >>> format_from_path("survey.LAZ"), format_from_path("a.dat", "csv"), format_from_path("x.mb121")
 ('las', 'xyz', 'gsf')
 >>> FORMAT_NAMES
-('xyz', 'las', 'laz', 'ply', 'npz', 'gsf', 'kmall', 'all')
+('xyz', 'las', 'laz', 'ply', 'npz', 'gsf', 'kmall', 'all', 'xtf')
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ __all__ = ["Format", "ReadRequest", "FORMATS", "FORMAT_NAMES", "SONAR_FORMATS", 
            "format_from_path", "format_of"]
 
 _ROWS: tuple[Format, ...] = (ascii.FORMAT, las.FORMAT, ply.FORMAT, npz.FORMAT, sonar.GSF, sonar.KMALL,
-                             sonar.ALL)
+                             sonar.ALL, sonar.XTF)
 
 #: Format name -> its row.
 FORMATS: dict[str, Format] = {f.name: f for f in _ROWS}

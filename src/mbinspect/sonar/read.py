@@ -8,11 +8,12 @@ from .common import Soundings
 from .gsf import read_gsf
 from .kmall import read_kmall
 from .kongsberg_all import read_all
+from .xtf import read_xtf
 
 __all__ = ["READERS", "read_sonar"]
 
 #: Sonar format name -> reader.
-READERS = {"gsf": read_gsf, "kmall": read_kmall, "all": read_all}
+READERS = {"gsf": read_gsf, "kmall": read_kmall, "all": read_all, "xtf": read_xtf}
 
 
 def read_sonar(path: str | os.PathLike[str], format: str) -> Soundings:
@@ -21,7 +22,7 @@ def read_sonar(path: str | os.PathLike[str], format: str) -> Soundings:
     Parameters
     ----------
     path : path-like
-    format : {"gsf", "kmall", "all"}
+    format : {"gsf", "kmall", "all", "xtf"}
 
     Returns
     -------
@@ -30,6 +31,6 @@ def read_sonar(path: str | os.PathLike[str], format: str) -> Soundings:
     Examples
     --------
     >>> sorted(READERS)
-    ['all', 'gsf', 'kmall']
+    ['all', 'gsf', 'kmall', 'xtf']
     """
     return READERS[format](str(path))
