@@ -1,6 +1,7 @@
 """Piles and reefs injected into the real files of ``../shared/real``: what their lines can measure.
 
-Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs] [--prior-offset M]``.
+Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs] [--prior-offset M]
+[--only NAME]``.
 For each real file with at least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a
 jacket of four piles (radius 0.5 m, sides 6 m or half the seabed's width, tops 2 m above the seabed) is
 injected at seeded placements (shift within 1.5 m of the centre, any turn) with
@@ -162,11 +163,14 @@ def _spread(cloud: PointCloud) -> PointCloud | None:
     return PointCloud(xyz, dict(cloud.fields))
 
 
-def _files() -> list[tuple[str, PointCloud, str]]:
-    """The real files the objects can go into, with the layout of their piles; a file
-    recorded holding station with its pings spread along a line (:func:`_spread`)."""
+def _files(only: str = "") -> list[tuple[str, PointCloud, str]]:
+    """The real files the objects can go into (those whose name holds ``only``), with the
+    layout of their piles; a file recorded holding station with its pings spread along a
+    line (:func:`_spread`)."""
     out = []
     for name, cloud in real_clouds():
+        if only not in name:
+            continue
         layout = _layout(cloud)
         if layout is None and (moved := _spread(cloud)) is not None and (layout := _layout(moved)):
             name, cloud = f"{name[:22]} (pings spread)", moved
@@ -181,8 +185,9 @@ def main() -> None:
     ap.add_argument("--objects", default="piles,reefs", help="piles, reefs or both")
     ap.add_argument("--prior-offset", type=float, default=0.0,
                     help="the radius prior given to locate_piles minus the injected radius (m)")
+    ap.add_argument("--only", default="", help="only the real files whose name holds this")
     args = ap.parse_args()
-    files = _files()
+    files = _files(args.only)
     if "reefs" in args.objects:
         reef_rows = []
         for name, cloud, layout in files:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mbinspect.cli import main
-from mbinspect.errors import DataError, InputError, InputWarning
+from mbinspect.errors import InputError, InputWarning
 from mbinspect.io import read
 
 ROWS = [(554845.028, 4179000.717, -10.983), (554846.112, 4179001.305, -11.024),
@@ -146,7 +146,7 @@ def test_positive_z_without_a_word_stops_the_pipelines(tmp_path, capsys, jacket_
     np.savetxt(p, xyz[::3], fmt="%.3f", delimiter=",", header="x,y,z", comments="")
     with pytest.warns(InputWarning, match="most z values are positive"):
         cloud = read(p)
-    with pytest.raises(DataError, match="give `depth_positive` for depths"):
+    with pytest.raises(InputError, match="give `depth_positive` for depths"):
         locate_piles(cloud, radius=0.75, count=4)
     code = main(["piles", str(p), "--radius", "0.75", "--count", "4", "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err

@@ -4,6 +4,7 @@ refused in one line, never a traceback, never silently wrong."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import multiprocessing as mp
 import struct
 import warnings
@@ -15,7 +16,7 @@ import pytest
 
 from mbinspect.cli import main
 from mbinspect.errors import InputError, ParameterError
-from mbinspect.io import read
+from mbinspect.io import read, sha256_of
 from mbinspect.outputs import MARKER
 from mbinspect.reefs import extract_reefs
 from mbinspect.report import write_reef_outputs
@@ -394,7 +395,27 @@ def test_data_that_cannot_support_an_answer_say_so_alike_in_memory_and_in_tiles(
     line = DATA / "ets_all_he_-3092155654265012286.all"
     errors = []
     for extra in ([], ["--tiled", "--workers", "1"]):
-        code = main(["reefs", str(line), "--no-figures", "--out", str(tmp_path / f"o{len(extra)}"), *extra])
-        err = _one_line(capsys, code, "too coarse to resolve objects")
-        errors.append(err.splitlines()[-1].split(" (so says")[0])
+        out = tmp_path / f"o{len(extra)}"
+        code = main(["reefs", str(line), "--no-figures", "--out", str(out), *extra])
+        err = capsys.readouterr().err
+        assert code == 5 and "Traceback" not in err  # the data cannot support an answer: not a mistake
+        assert err.splitlines()[-1].startswith("mbinspect: no answer: ")
+        written = json.loads((out / "no_answer.json").read_text())
+        assert "too coarse to resolve objects" in written["reason"] and written["answer"] is None
+        assert written["input"][0]["sha256"] == sha256_of(line)
+        errors.append(written["reason"].split(" (so says")[0])
     assert errors[0] == errors[1]
+
+
+def test_binary_data_and_endless_lines_are_refused_at_once(tmp_path, capsys):
+    """A 1 GB all-zero .xyz took 44 s and 9.9 GB to be told it held no data lines (one
+    line of a billion NULs); a NUL or a line over 1 MB is now refused before it is read."""
+    zeros = tmp_path / "zeros.xyz"
+    zeros.write_bytes(bytes(3 * 2**20))
+    _one_line(capsys, main(["info", str(zeros)]), "zeros.xyz, byte 0: a NUL byte (binary data)")
+    late = tmp_path / "late.xyz"
+    late.write_bytes(b"1 2 -3\n" * 1000 + b"\0" * 10)
+    _one_line(capsys, main(["info", str(late)]), "late.xyz, byte 7000: a NUL byte")
+    endless = tmp_path / "endless.xyz"
+    endless.write_bytes(b"7" * (2 * 2**20))
+    _one_line(capsys, main(["info", str(endless)]), "endless.xyz, line 1: over 1 MB without a line end")

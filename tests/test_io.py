@@ -142,8 +142,8 @@ def test_missing_file_directory_and_extension(tmp_path):
     with pytest.raises(InputError, match="unknown extension '.foo'"):
         read(tmp_path / "a.foo")
     assert len(read(tmp_path / "a.foo", format="xyz")) == 1
-    with pytest.raises(ParameterError, match="format: 'xtf'; expected one of xyz, las, laz, ply, npz, gsf"):
-        read(tmp_path / "a.foo", format="xtf")
+    with pytest.raises(ParameterError, match="format: 'e57'; expected one of xyz, las, laz, ply, npz, gsf"):
+        read(tmp_path / "a.foo", format="e57")
     with pytest.raises(InputError, match="a.foo: no GSF header record; expected a GSF file"):
         read(tmp_path / "a.foo", format="gsf")
 

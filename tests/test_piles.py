@@ -451,8 +451,9 @@ def test_a_quay_wall_is_not_a_pile(capsys, tmp_path):
     with pytest.raises(DataError, match=r"is not a pile \(not measurable: .*, radius 0\.\d\d m against the "
                                          r"prior 0\.75 m\)"):
         locate_piles(read(path), radius=0.75)
-    assert main(["piles", str(path), "--radius", "0.75", "--out", str(tmp_path / "p")]) == 2
+    assert main(["piles", str(path), "--radius", "0.75", "--out", str(tmp_path / "p")]) == 5  # no answer
     assert "is not a pile" in capsys.readouterr().err
+    assert "is not a pile" in json.loads((tmp_path / "p" / "no_answer.json").read_text())["reason"]
 
 
 def test_rejection_reasons_for_what_cannot_stand():

@@ -313,7 +313,7 @@ def test_a_filter_that_removes_most_soundings_says_so_and_what_to_give(capsys, t
         extract_reefs(pts)
     path = tmp_path / "grid.xyz"
     np.savetxt(path, pts, fmt="%.3f")
-    assert main(["reefs", str(path), "--out", str(tmp_path / "out"), "--noise-spacing", "0"]) == 2
+    assert main(["reefs", str(path), "--out", str(tmp_path / "out"), "--noise-spacing", "0"]) == 5
     err = capsys.readouterr().err
     assert "--noise-radius 1.4" in err and "keeps 99 %" in err
 

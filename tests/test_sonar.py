@@ -184,4 +184,4 @@ def test_reefs_on_a_narrow_real_strip_and_on_identical_points(tmp_path, capsys):
     same.write_text("1 2 -10\n" * 10)
     code = main(["reefs", str(same), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
-    assert code == 2 and err.startswith("mbinspect: error: ") and err.count("\n") == 1
+    assert code == 5 and err.startswith("mbinspect: no answer: ") and err.count("\n") == 1

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .checks import check_points
-from .errors import DataError, NotEnoughPointsError, ParameterError
+from .errors import InputError, NotEnoughPointsError, ParameterError
 from .geometry import crop_mask
 from .strays import duplicate_soundings, stray_soundings
 
@@ -137,14 +137,14 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
 
     Raises
     ------
-    DataError
+    InputError
         The cloud's z is in doubt (``meta["z_doubt"]``, see :func:`read`).
     NotEnoughPointsError
         Fewer than ``minimum`` points (after the crop).
     """
     cloud = data if isinstance(data, PointCloud) else PointCloud(check_points(data))
     if cloud.meta.get("z_doubt"):
-        raise DataError(cloud.meta["z_doubt"])
+        raise InputError(cloud.meta["z_doubt"])
     if crop is not None:
         cloud = cloud.subset(crop_mask(cloud.xyz, crop))
     pts = check_points(cloud.xyz, minimum=minimum, name="points")

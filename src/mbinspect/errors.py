@@ -51,5 +51,15 @@ class DataError(MBInspectError, ValueError):
     """The data are well formed but cannot support the answer asked for."""
 
 
+class NoAnswer(MBInspectError):
+    """A command's data could not support its answer; the reason was written to ``written``
+    (the command line's exit status 5, distinct from a user's mistake)."""
+
+    def __init__(self, cause: MBInspectError, written: str) -> None:
+        super().__init__(str(cause), option=cause.option)
+        self.cause = cause
+        self.written = written
+
+
 class InputWarning(UserWarning):
     """A doubt about an input file that does not stop the read (the CLI prints one line)."""

@@ -8,7 +8,8 @@ import dataclasses
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -178,3 +179,34 @@ def file_records(files: Sequence[Path]) -> list[dict[str, Any]]:
     from ..io import sha256_of
 
     return [{"file": str(path), "size": os.path.getsize(path), "sha256": sha256_of(path)} for path in files]
+
+
+#: What a folder holds when its data could not support the command's answer.
+NO_ANSWER = "no_answer.json"
+
+
+@contextmanager
+def no_answer_written(staging: Path, kind: str, args: argparse.Namespace, argv: Sequence[str]
+                      ) -> Iterator[list[Exception]]:
+    """Run the block; if the data cannot support an answer (``DataError``, too few
+    soundings), write the reason to ``NO_ANSWER`` in ``staging`` and hold the error in the
+    yielded list, so that the folder is kept and the caller raises ``NoAnswer`` after it."""
+    from ..errors import DataError, NotEnoughPointsError
+    from ..outputs import write_json
+
+    caught: list[Exception] = []
+    try:
+        yield caught
+    except (DataError, NotEnoughPointsError) as exc:
+        write_json({"answer": None, "kind": kind, "reason": str(exc),
+                    "input": file_records(list(args.files)), "reading": read_options(args),
+                    "command_line": ["mbinspect", *argv]}, staging / NO_ANSWER)
+        caught.append(exc)
+
+
+def raise_no_answer(caught: list[Exception], out: Path) -> None:
+    """Raise ``NoAnswer`` for the error :func:`no_answer_written` held, if any."""
+    from ..errors import MBInspectError, NoAnswer
+
+    if caught and isinstance(caught[0], MBInspectError):
+        raise NoAnswer(caught[0], str(out / NO_ANSWER))

@@ -12,11 +12,11 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, NoReturn
 
-from ..errors import MBInspectError
+from ..errors import MBInspectError, NoAnswer
 from ..version import __version__
 from . import demo, info, inject, piles, reefs, simulate, soundings
 from .common import Parser, Reporter
-from .exits import EXIT_IO, EXIT_PIPE, EXIT_USER
+from .exits import EXIT_DATA, EXIT_IO, EXIT_PIPE, EXIT_USER
 
 _EPILOG = """\
 examples:
@@ -102,8 +102,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         0 done; 2 a user's mistake; 3 results written but a pile flagged or a spacing
-        failed; 1 the output could not be written; 130 / 143 interrupted; 141 the reader of
-        the output went away.
+        failed; 4 a verdict undecided; 5 the data cannot support an answer (the reason
+        written to ``no_answer.json``); 1 the output could not be written; 130 / 143
+        interrupted; 141 the reader of the output went away.
 
     Examples
     --------
@@ -122,6 +123,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             code: int = args.func(args, rep, argv)
             sys.stdout.flush()
             return code
+    except NoAnswer as exc:
+        print(f"mbinspect: no answer: {_message(exc.cause, args)} (written to {exc.written})",
+              file=sys.stderr)
+        return EXIT_DATA
     except MBInspectError as exc:
         print(f"mbinspect: error: {_message(exc, args)}", file=sys.stderr)
         return EXIT_USER

@@ -11,7 +11,16 @@ from typing import Any
 
 from .common import Reporter, add_output, subcommand
 from .exits import EXIT_FLAGGED, EXIT_UNDECIDED
-from .inputs import add_input, add_survey_flags, check_input, provenance, run_pipeline, survey_options
+from .inputs import (
+    add_input,
+    add_survey_flags,
+    check_input,
+    no_answer_written,
+    provenance,
+    raise_no_answer,
+    run_pipeline,
+    survey_options,
+)
 
 
 def _add_pile_options(p: argparse.ArgumentParser) -> None:
@@ -62,13 +71,16 @@ def _cmd_piles(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     check_input(args)
     design = read_design(args.design) if args.design else None
     out = Path(args.out or "piles-out")
-    with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.design]) as tmp:
+    with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.design]) as tmp, \
+            no_answer_written(tmp, "piles", args, argv) as caught:
         t = time.perf_counter()
         run = run_pipeline("piles", args, args.files, options, survey, verbosity=rep.verbosity,
                            extra={"design": design}, staging=tmp, stages=rep.progress)
         rep.debug(f"located {len(run.result.piles)} piles in {time.perf_counter() - t:.2f} s")
         result = provenance(run.result, args, argv, design=args.design)
-        return finish_piles(result, run.points, tmp, out, args, rep)
+        code = finish_piles(result, run.points, tmp, out, args, rep)
+    raise_no_answer(caught, out)
+    return code
 
 
 def add_parser(sub: Any) -> None:

@@ -10,7 +10,16 @@ from pathlib import Path
 from typing import Any
 
 from .common import Reporter, add_output, percent, subcommand
-from .inputs import add_input, add_survey_flags, check_input, provenance, run_pipeline, survey_options
+from .inputs import (
+    add_input,
+    add_survey_flags,
+    check_input,
+    no_answer_written,
+    provenance,
+    raise_no_answer,
+    run_pipeline,
+    survey_options,
+)
 
 
 def _add_reef_options(p: argparse.ArgumentParser) -> None:
@@ -38,14 +47,16 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     reference = read_reference(args.reference) if args.reference else None
     design_files = [s for s in (args.opt_design or "").split(",") if s.strip().lower().endswith(".json")]
     out = Path(args.out or "reefs-out")
-    with output_dir(out, overwrite=args.overwrite,
-                    inputs=[*map(str, args.files), args.reference, *design_files]) as tmp:
+    with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.reference,
+                                                            *design_files]) as tmp, \
+            no_answer_written(tmp, "reefs", args, argv) as caught:
         t = time.perf_counter()
         run = run_pipeline("reefs", args, args.files, options, survey, verbosity=rep.verbosity,
                            extra={"reference": reference}, staging=tmp, stages=rep.progress)
         rep.debug(f"extracted {len(run.result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
         result = provenance(run.result, args, argv, reference=args.reference)
         write_reef_outputs(result, run.points, tmp, figures=not args.no_figures)
+    raise_no_answer(caught, out)
     d = result.to_dict()
     if rep.verbosity >= 0:
         rms = number(d["seabed"].get("residual_rms"))

@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import datetime as dt
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..errors import InputError, ParameterError
 
@@ -159,6 +160,24 @@ def _guess_delimiter(line: str) -> tuple[str | None, str]:
     return None, "."
 
 
+#: No line of a point file is this long: a longer one is binary data or not a point file.
+_LONGEST_LINE = 2**20
+
+
+def _lines(path: Path, fh: Any) -> Iterator[bytes]:
+    """The file's lines, refusing binary data (a NUL in its first MB) and a line longer than
+    :data:`_LONGEST_LINE` (a 1 GB file of zeros once took 10 GB to be told it held no data)."""
+    nul = fh.read(_LONGEST_LINE).find(b"\0")
+    if nul >= 0:
+        raise InputError(f"{path}, byte {nul}: a NUL byte (binary data); expected an ASCII point file")
+    fh.seek(0)
+    for lineno, raw in enumerate(iter(lambda: fh.readline(_LONGEST_LINE), b""), 1):
+        if len(raw) == _LONGEST_LINE and not raw.endswith(b"\n"):
+            raise InputError(f"{path}, line {lineno}: over {_LONGEST_LINE // 2**20} MB without a line end; "
+                             "expected lines of points")
+        yield raw
+
+
 def sniff(path: Path, columns: str | Sequence[str] | None, delimiter: str | None,
           decimal: str | None = None) -> AsciiTable:
     """The layout of an ASCII point file, from its first lines.
@@ -188,7 +207,7 @@ def sniff(path: Path, columns: str | Sequence[str] | None, delimiter: str | None
     seen_delimiter = delimiter is not None
     mark = decimal
     with open(path, "rb") as fh:
-        for raw in fh:
+        for raw in _lines(path, fh):
             lineno += 1
             try:
                 line = raw.decode("utf-8-sig" if lineno == 1 else "utf-8")

@@ -15,7 +15,7 @@ from .footprint import Raster
 from .ground import Seabed
 from .measure import measure_reef
 from .options import ReefOptions
-from .reject import Candidate, Context, other_object, why_not_a_reef
+from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
 from .results import OtherObject, Reef
 from .shape import ground_by_x
 from .split import split_reefs
@@ -144,14 +144,22 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef)
                  for p in parts]
         fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights)
+    free = reefs
+    if designs:
         reefs = [with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
     others = [other_object(measure_reef(points, p, raster, seabed, is_reef=is_reef),
                            f"smaller than `min_area` {options.min_area:g} m²") for p in small]
     context = Context(points, is_reef, raster, ping, line,
                       ground_by_x(points, is_reef, height, line) if line is not None else None)
     kept, kept_members = [], []
-    for r, p, m in zip(reefs, parts, _members(points, is_reef, raster, parts), strict=True):
-        why = why_not_a_reef(Candidate(r, p), context, options)
+    for r, f, p, m in zip(reefs, free, parts, _members(points, is_reef, raster, parts), strict=True):
+        misfit = design_misfit(Candidate(r, p), context, options)
+        if misfit:  # no design given fits it: its free-form measures, judged by its shape
+            r = f
+            why = why_not_a_reef(Candidate(f, p), context, options)
+            why = f"{misfit}; as a free-form object: {why}" if why else None
+        else:
+            why = why_not_a_reef(Candidate(r, p), context, options)
         if why:
             others.append(other_object(r, why))
         else:
