@@ -5,7 +5,8 @@ Run: ``python benchmarks/bench_las.py [--points 10000000]``. Writes a survey-lik
 line, scan angle) and its LAZ, in a projected metre CRS, then reads each in fresh processes,
 best of three: laspy (``laspy.read`` and the (N, 3) float64 array a user builds from it) and
 ``mbinspect.io.read`` (the same array, its fields, the withheld and noise check, the CRS
-check). Prints seconds, peak resident memory and the ratios to laspy.
+check), and ``mbinspect info`` as a user runs it (the read, then bounds, covered area and
+sounding spacing). Prints seconds, peak resident memory and the ratios to laspy's read.
 """
 
 from __future__ import annotations
@@ -43,6 +44,19 @@ with warnings.catch_warnings():
 took = time.perf_counter() - t
 print(json.dumps({"s": took, "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
                   "n": len(cloud)}))
+"""
+
+
+INFO = """
+import contextlib, io, json, resource, sys, time, warnings
+from mbinspect.cli import main
+t = time.perf_counter()
+with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+    warnings.simplefilter("ignore")
+    main(["info", sys.argv[1]])
+took = time.perf_counter() - t
+print(json.dumps({"s": took, "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+                  "n": 0}))
 """
 
 
@@ -92,12 +106,14 @@ def main() -> None:
         for kind, path in files.items():
             peer, ours = _best(PEER, path), _best(OURS, path)
             assert peer["n"] == ours["n"] == args.points
-            rows.append([kind, f"{path.stat().st_size / 1e6:.0f} MB", f"{peer['s']:.2f}", f"{ours['s']:.2f}",
-                         f"{ours['s'] / peer['s']:.2f}", f"{peer['rss'] / 1e9:.2f}",
-                         f"{ours['rss'] / 1e9:.2f}", f"{ours['rss'] / peer['rss']:.2f}"])
+            info = _best(INFO, path)
+            for what, got in (("read", ours), ("info", info)):
+                rows.append([kind, what, f"{path.stat().st_size / 1e6:.0f} MB", f"{peer['s']:.2f}",
+                             f"{got['s']:.2f}", f"{got['s'] / peer['s']:.2f}", f"{peer['rss'] / 1e9:.2f}",
+                             f"{got['rss'] / 1e9:.2f}", f"{got['rss'] / peer['rss']:.2f}"])
     print(f"{args.points:,} points, best of 3 fresh processes each")
-    print(table(["file", "size", "laspy s", "mbinspect s", "time ratio", "laspy GB", "mbinspect GB",
-                 "memory ratio"], rows))
+    print(table(["file", "mbinspect", "size", "laspy s", "mbinspect s", "time ratio", "laspy GB",
+                 "mbinspect GB", "memory ratio"], rows))
 
 
 if __name__ == "__main__":

@@ -30,14 +30,33 @@ def _read_las(path: Path, keep_rejected: bool = False) -> PointCloud:
     check_header(path)
     try:
         with native_stderr_held():
-            las = laspy.read(path)
+            header, points = _mapped(path)
+            if points is None:
+                las = laspy.read(path)
+                header, points = las.header, las.points
     except (KeyboardInterrupt, SystemExit, GeneratorExit):
         raise
     except BaseException as exc:  # laspy raises many types, lazrs a Rust panic (a BaseException)
         raise InputError(f"{path}: not a readable LAS/LAZ file ({_reason(exc)})") from None
-    if len(las.points) == 0:
+    if len(points) == 0:
         raise InputError(f"{path}: the LAS file holds no points")
-    return rejected_left_out(_las_cloud(las, las.header, path), keep_rejected)
+    return rejected_left_out(_las_cloud(points, header, path), keep_rejected)
+
+
+def _mapped(path: Path) -> tuple[Any, Any]:
+    """An uncompressed LAS file's header and its points mapped from the file, not read into a
+    buffer first (10 M points: 0.23 s against laspy.read's 1.0 s, warm); None for the points
+    of a LAZ file or one whose records are not laid out as its point format says."""
+    import laspy
+
+    with laspy.open(path) as reader:
+        header = reader.header
+    dtype = header.point_format.dtype()
+    if header.are_points_compressed or dtype.itemsize != header.point_format.size or \
+            header.offset_to_point_data + dtype.itemsize * header.point_count > path.stat().st_size:
+        return header, None
+    raw = np.memmap(path, dtype, mode="r", offset=header.offset_to_point_data, shape=(header.point_count,))
+    return header, laspy.ScaleAwarePointRecord(raw, header.point_format, header.scales, header.offsets)
 
 
 def iter_las(path: str | os.PathLike[str], chunk: int = 2_000_000, keep_rejected: bool = False
@@ -260,20 +279,20 @@ def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
                               ("point_source_id", "line", np.int32)):
         if name in dims:
             values = np.asarray(las[name])
-            if values.any():
+            if _any(values):
                 fields[field] = values.astype(kind)
     for angle in ("scan_angle", "scan_angle_rank"):
         if angle in dims:
             values = np.asarray(las[angle])
-            if values.any():
+            if _any(values):
                 fields["beam_angle"] = values.astype(np.float64) * (0.006 if angle == "scan_angle" else 1.0)
                 break
     for extra in las.point_format.extra_dimension_names:
         values = np.asarray(las[extra])
         if values.ndim == 2:  # an array of values per point (a colour triple): one field each
-            fields.update({f"{extra}_{k}": values[:, k] for k in range(values.shape[1])})
+            fields.update({f"{extra}_{k}": np.array(values[:, k]) for k in range(values.shape[1])})
         else:
-            fields[extra] = values
+            fields[extra] = np.array(values)  # a copy: nothing refers to a mapped file
     if "intensity_db" in fields:  # written by us: exact float intensity
         fields["intensity"] = np.asarray(fields.pop("intensity_db"), dtype=np.float64)
     crs = None
@@ -283,6 +302,11 @@ def _las_cloud(las: Any, header: Any, path: Path) -> PointCloud:
     except Exception:  # pyproj missing or no CRS: not an error
         crs = None
     return PointCloud(xyz, fields, source=str(path), crs=crs)
+
+
+def _any(values: np.ndarray) -> bool:
+    """Whether any value is non-zero: a sample first, the whole array only if that is all zero."""
+    return bool(values[:: max(1, len(values) // 4096)].any() or values.any())
 
 
 def _write_las(cloud: PointCloud, path: Path, precision: int) -> None:
