@@ -101,7 +101,8 @@ def test_sigkill_takes_the_workers_and_the_next_run_clears_the_staging_folder(bi
     assert len(stale) == 1 and stale[0].startswith(".out.mbinspect-")
     small = tmp_path.parent / f"{tmp_path.name}-small.xyz"
     small.write_text("0 0 -20\n1 0 -20\n")
-    main(["piles", str(small), "--radius", "0.75", "--out", str(out)])  # fails on 2 points
+    assert main(["piles", str(small), "--radius", "0.75", "--out", str(out)]) == 5  # 2 points: no answer
     assert "at least 10" in capsys.readouterr().err
-    assert list(tmp_path.iterdir()) == []
+    assert [q.name for q in tmp_path.iterdir()] == ["out"]  # the stale staging folder cleared
+    assert sorted(q.name for q in out.iterdir()) == [".mbinspect-result", "no_answer.json"]
     os.unlink(small)
