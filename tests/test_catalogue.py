@@ -419,3 +419,23 @@ def test_binary_data_and_endless_lines_are_refused_at_once(tmp_path, capsys):
     endless = tmp_path / "endless.xyz"
     endless.write_bytes(b"7" * (2 * 2**20))
     _one_line(capsys, main(["info", str(endless)]), "endless.xyz, line 1: over 1 MB without a line end")
+
+
+def test_soundings_far_below_or_far_away_are_named_in_memory_and_in_tiles(tmp_path, capsys):
+    """A sounding 640 m under a 10 m seabed passed without a word; in a tiled run a sounding
+    91 km away made a tile of its own ("0 points") and was never named."""
+    rng = np.random.default_rng(0)
+    g = np.arange(0.0, 30.0, 0.3)
+    x, y = np.meshgrid(g, g)
+    pts = np.column_stack([x.ravel() + 500_000, y.ravel() + 4_100_000, -10 + rng.normal(0, 0.02, x.size)])
+    pts[5, 2] = -650.0
+    pts[7, :2] = [512_000, 4_190_000]
+    path = tmp_path / "outliers.xyz"
+    np.savetxt(path, pts, fmt="%.3f")
+    for extra in ([], ["--tiled", "--workers", "1"]):
+        assert main(["reefs", str(path), "--crs", "EPSG:32617", "--no-figures",
+                     "--out", str(tmp_path / f"o{len(extra)}"), *extra]) == 0
+        err = capsys.readouterr().err
+        assert "1 sounding far below the seabed of the survey, down to -650.0 m (median -10.0 m)" in err
+        assert "km from the rest of the survey (a navigation jump?) and were left out" in err
+        assert "0 points" not in err and "Traceback" not in err

@@ -20,7 +20,7 @@ import numpy as np
 from .checks import check_points
 from .errors import InputError, NotEnoughPointsError, ParameterError
 from .geometry import crop_mask
-from .strays import duplicate_soundings, stray_soundings
+from .strays import deep_outliers, duplicate_soundings, stray_soundings
 
 __all__ = ["PointCloud", "crs_name", "pipeline_input", "sources", "ping_ranges"]
 
@@ -155,6 +155,13 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
                      "export written twice?) and were counted once")
         cloud = cloud.subset(~copies)
         pts = check_points(cloud.xyz, minimum=minimum, name="points")
+    deep = deep_outliers(pts[:, 2])
+    if deep.any():
+        where = f" (pings {', '.join(map(str, np.unique(cloud.fields['ping'][deep])[:5]))})" \
+            if "ping" in cloud.fields else ""
+        low, median, n = float(pts[deep, 2].min()), float(np.median(pts[:, 2])), int(deep.sum())
+        notes.append(f"{n:,} sounding{'s' * (n > 1)}{where} far below the seabed of the survey, down to "
+                     f"{low:.1f} m (median {median:.1f} m): corrupt records or multiples? Kept; check them")
     if cloud.meta.get("strays_removed"):  # a tile of a survey: done once for the whole survey
         return cloud, pts, notes
     stray = stray_soundings(pts)

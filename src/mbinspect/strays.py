@@ -9,8 +9,8 @@ import numpy as np
 
 from .grid import cell_key, unpack_cells
 
-__all__ = ["stray_soundings", "stray_cells", "cell_groups", "duplicate_soundings", "STRAY_SHARE",
-           "STRAY_OF_LARGEST"]
+__all__ = ["stray_soundings", "stray_cells", "cell_groups", "duplicate_soundings", "deep_outliers",
+           "STRAY_SHARE", "STRAY_OF_LARGEST"]
 
 
 #: Share of the soundings a spatially separate group may hold and still be set aside as
@@ -169,3 +169,24 @@ def duplicate_soundings(points: np.ndarray) -> np.ndarray:
     same = (pts[order[1:]] == pts[order[:-1]]).all(axis=1)
     out[order[1:][same]] = True
     return out
+
+
+def deep_outliers(z: np.ndarray) -> np.ndarray:
+    """Soundings far deeper than any seabed of the survey: a corrupt record, a multiple, a
+    range gate gone wrong (nothing stands hundreds of metres under a 10 m seabed).
+
+    Deeper than the 1st percentile of the elevations by more than the largest of 10 m, half
+    the median depth and three times the spread between the 1st and 99th percentiles. Objects
+    stand above the seabed, so nothing above it is judged here.
+
+    Examples
+    --------
+    >>> z = np.r_[np.full(999, -10.0), -650.0]
+    >>> deep_outliers(z).nonzero()[0].tolist()
+    [999]
+    """
+    z = np.asarray(z, np.float64)
+    if len(z) < 100:
+        return np.zeros(len(z), dtype=bool)
+    low, mid, high = np.percentile(z, [1, 50, 99])
+    return z < low - max(10.0, 0.5 * abs(float(mid)), 3.0 * float(high - low))

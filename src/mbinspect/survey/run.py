@@ -23,13 +23,13 @@ import numpy as np
 
 from ..errors import DataError, NotEnoughPointsError
 from ..formats import format_of
-from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory
+from ..grid import BYTES_PER_CELL, extent_bytes, machine_memory, pack_cells
 from ..options import Options, option
 from ..pipeline import Pipeline, TilePart
 from ..pipelines import pipeline_named
 from ..strays import stray_cells
 from ..version import __version__
-from .bins import FileBins, bin_file, block_counts
+from .bins import STRAY_CELL, FileBins, bin_file, block_counts
 from .cluster import Progress, dask_client, map_tasks, scheduler_address
 from .inputs import SurveyCRS, read_survey, survey_crs
 from .tiles import TilePlan, choose_plan, load_tile, tile_slices
@@ -173,7 +173,7 @@ def run_survey(pipeline: str | Pipeline, paths: Sequence[str | os.PathLike[str]]
             if not sizing.get("within_budget", True):
                 notes.append(f"tiled: the smallest tiles the buffer allows read {sizing['largest']:,} "
                              f"soundings, more than `tile_memory` holds")
-            tasks = _tile_tasks(bins, plan, pipe, tile_opts, [str(f) for f in files])
+            tasks = _tile_tasks(bins, plan, pipe, tile_opts, [str(f) for f in files], notes)
             say(f"{sum(b.n for b in bins):,} soundings in {len(tasks)} tiles of {plan.size:g} m with a "
                 f"{plan.reach * plan.block:g} m buffer")
             fn = tile_function or run_tile
@@ -237,6 +237,11 @@ def _plan(bins: Sequence[FileBins], buffer: float, block: float, survey: SurveyO
     memory = survey.tile_memory * 1e9 if survey.tile_memory else min(1.8e9, machine_memory() * 0.8 / workers)
     budget = max(memory - TILE_BASE_BYTES, 0.0) / TILE_BYTES_PER_SOUNDING
     blocks, counts = block_counts(bins)
+    u, _, is_stray = _strays(bins)
+    if is_stray.any():  # stray soundings are left out: they do not stretch the tiles
+        centre = np.floor((blocks + 0.5) * block / STRAY_CELL).astype(np.int64)
+        keep = ~np.isin(pack_cells(centre[:, 0], centre[:, 1]), pack_cells(u[is_stray, 0], u[is_stray, 1]))
+        blocks, counts = blocks[keep], counts[keep]
     return choose_plan(blocks, counts, buffer, block, budget=budget, workers=workers,
                        area_weight=BYTES_PER_CELL / cell**2 / TILE_BYTES_PER_SOUNDING)
 
@@ -268,13 +273,26 @@ class TileOutcome:
     stats: Mapping[str, Any]
 
 
-def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, pipe: Pipeline, options: Any,
-                files: Sequence[str]) -> list[TileTask]:
+def _strays(bins: Sequence[FileBins]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The survey's occupied stray-search cells, their soundings and which are stray."""
     cells = np.concatenate([b.cells for b in bins])
     counts = np.concatenate([b.cell_counts for b in bins])
     u, inv = np.unique(cells, axis=0, return_inverse=True)
     total = np.bincount(inv.ravel(), weights=counts)
-    stray = u[stray_cells(u, total)]
+    return u, total, stray_cells(u, total)
+
+
+def _tile_tasks(bins: Sequence[FileBins], plan: TilePlan, pipe: Pipeline, options: Any,
+                files: Sequence[str], notes: list[str]) -> list[TileTask]:
+    """A task per tile; the survey's stray soundings (far from the rest) named in ``notes``."""
+    u, total, is_stray = _strays(bins)
+    stray = u[is_stray]
+    if is_stray.any():
+        gap = np.median(u[is_stray], axis=0) - np.median(u[~is_stray], axis=0)
+        far = float(np.hypot(*gap)) * STRAY_CELL
+        n = int(total[is_stray].sum())
+        notes.append(f"{n:,} sounding{'s lie' if n > 1 else ' lies'} {far / 1000:.1f} km from the rest of "
+                     "the survey (a navigation jump?) and were left out")
     offsets: dict[int, tuple[int, np.ndarray]] = {}
     first = 1
     for b in bins:
@@ -301,6 +319,8 @@ def run_tile(task: TileTask) -> TileOutcome:
 def _run_tile(task: TileTask) -> TileOutcome:
     cloud = load_tile(task.slices, line_offsets=task.line_offsets, stray=task.stray, files=task.files,
                       crs=task.crs)
+    if len(cloud) == 0:  # a tile that held only stray soundings
+        return TileOutcome(task.key, TilePart(stats={"n_own": 0}), 0, np.zeros((0, 3)), {})
     i, j = task.plan.home(cloud.xyz)
     own = (i == task.key[0]) & (j == task.key[1])
     sample = _thin(cloud.xyz[own])

@@ -153,6 +153,22 @@ def _makespan(loads: np.ndarray, workers: int, overhead: float) -> float:
     return max(heap)
 
 
+def _sides(first: int, last: int, every: int = 64, growth: float = 1.1) -> list[int]:
+    """The tile sides (in blocks) :func:`choose_plan` tries: each from ``first`` for
+    ``every`` sides, then ``growth`` times larger each, to ``last`` (two lines 90 km apart
+    asked for 240,000 plans, 49 s, where a tenth more a step loses nothing of note).
+
+    Examples
+    --------
+    >>> _sides(5, 8), len(_sides(5, 6700))
+    ([5, 6, 7, 8], 114)
+    """
+    sides = list(range(first, min(last, first + every - 1) + 1))
+    while sides[-1] < last:
+        sides.append(min(last, max(sides[-1] + 1, int(sides[-1] * growth))))
+    return sides
+
+
 def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: float, *, budget: float,
                 workers: int, overhead: float = 2e5, origins: int = 6, area_weight: float = 0.0
                 ) -> tuple[TilePlan, dict[str, Any]]:
@@ -178,7 +194,7 @@ def choose_plan(blocks: np.ndarray, counts: np.ndarray, buffer: float, block: fl
     lo = blocks.min(axis=0) if len(blocks) else np.zeros(2, np.int64)
     span = int((blocks.max(axis=0) - lo).max()) + 1 if len(blocks) else 1
     best: tuple[Any, ...] = ((True, math.inf),)
-    for k in range(2 * reach + 1, max(2 * reach + 1, span + 1) + 1):
+    for k in _sides(2 * reach + 1, max(2 * reach + 1, span + 1)):
         smallest = math.inf
         steps = range(0, k, max(1, math.ceil(k / origins)))
         for oi in steps:
