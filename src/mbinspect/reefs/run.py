@@ -14,6 +14,7 @@ from ..errors import DataError, ParameterError
 from ..grid import extent_bytes, machine_memory, sounding_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
+from ..timing import StageTimes
 from ..version import __version__
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .ground import Seabed, fit_seabed
@@ -78,7 +79,8 @@ def _check_resolution(pts: np.ndarray, opts: ReefOptions, filter_note: str | Non
 
 def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = None, *,
                   reference: tuple[np.ndarray, tuple[Any, ...]] | None = None,
-                  progress: Callable[[float], None] | None = None, **overrides: Any) -> ReefResult:
+                  progress: Callable[[float], None] | None = None, times: StageTimes | None = None,
+                  **overrides: Any) -> ReefResult:
     """Extract, separate and measure artificial reefs; score them against a reference.
 
     Stages: the paper's radius filter (:func:`denoise`), the terrain screen
@@ -97,6 +99,8 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
         Reference reef positions (:func:`mbinspect.evaluate.read_reference`).
     progress : callable, optional
         Called with the fraction done (0 to 1).
+    times : StageTimes, optional
+        Given, each stage's seconds (and peak memory) are recorded in it.
     **overrides
         Options by name, over ``options`` (``extract_reefs(cloud, design="cross2")``).
 
@@ -119,12 +123,16 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     25
     """
     opts = ReefOptions(**overrides) if options is None else options.replace(**overrides)
+    lap = _laps(times)
     cloud, pts, notes = pipeline_input(data, crop=opts.crop)
+    lap("input checks")
     report = progress or (lambda f: None)
     local = opts.method == "local"
     keep, filters, filter_note = _denoise(pts, opts)
+    lap("radius filter")
     report(0.25)
     _check_resolution(pts[keep], opts, filter_note)
+    lap("resolution check")
     ground = screen_terrain(pts[keep], local=local, seabed=opts.seabed, exclude_rough=opts.exclude_rough,
                             max_slope_deg=opts.max_slope_deg, max_roughness=opts.max_roughness,
                             seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window)
@@ -134,28 +142,41 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     kept = ground.points
     rows = np.flatnonzero(keep) if ground.kept is None else np.flatnonzero(keep)[ground.kept]
     _enough(kept, filter_note)
+    lap("terrain")
     report(0.35)
     surf, seabed_info = fit_seabed(kept, mode=opts.seabed if local else "plane",
                                    threshold=opts.plane_threshold, confidence=opts.confidence,
                                    cell=opts.seabed_cell, window=opts.seabed_window,
                                    max_plane_dev=opts.max_plane_dev, seed=opts.seed, grid=ground.grid,
                                    grid_height=ground.height)
+    lap("seabed")
     report(0.55)
     h_all = ground.height if surf is ground.grid and ground.height is not None else surf.height_above(kept)
     seabed_info["coverage"] = ground.coverage
     warnings += _seabed_note(h_all, ground.coverage)
     is_reef = _reef_mask(kept, surf, h_all, opts, filters)
+    lap("reef points")
     report(0.7)
     reefs, others, used_area = _objects(cloud, kept, rows, is_reef, surf, h_all, opts)
+    lap("single reefs")
     reefs, groups = number_reefs(reefs, opts.group_link)
     evaluation, ref_xy = None, None
     if reference is not None:
         evaluation, ref_xy = _score(reefs, reference, opts, warnings)
+    lap("groups and score")
     report(1.0)
     parameters = {**opts.to_dict(), "input": {"source": cloud.source, "n_points": len(pts), "crs": cloud.crs},
                   "software": f"mbinspect {__version__}"}
     return ReefResult(tuple(reefs), tuple(groups), tuple(others), seabed_info, filters, evaluation,
                       parameters, tuple(warnings), ground.region, surf, {"reef_area_used": used_area}, ref_xy)
+
+
+def _laps(times: StageTimes | None) -> Callable[[str], None]:
+    """``times.lap`` once ``times`` is started, or a lap that records nothing."""
+    if times is None:
+        return lambda name: None
+    times.start()
+    return times.lap
 
 
 def _denoise(pts: np.ndarray, opts: ReefOptions) -> tuple[np.ndarray, dict[str, Any], str | None]:

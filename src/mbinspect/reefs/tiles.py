@@ -54,7 +54,8 @@ class ReefsPipeline:
 
     def run(self, cloud: PointCloud, options: ReefOptions, extra: Mapping[str, Any],
             progress: Callable[[float], None] | None = None) -> ReefResult:
-        return extract_reefs(cloud, options, reference=extra.get("reference"), progress=progress)
+        return extract_reefs(cloud, options, reference=extra.get("reference"), progress=progress,
+                             times=extra.get("times"))
 
     def run_tile(self, cloud: PointCloud, options: ReefOptions, owns: Callable[[float, float], bool]
                  ) -> TilePart:
