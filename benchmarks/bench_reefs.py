@@ -1,6 +1,8 @@
 """Reef extraction speed beside an Open3D pipeline doing the paper's steps, and peak memory.
 
-Run: ``python benchmarks/bench_reefs.py [--sizes 0.3,3] [--memory-10m]``.
+Run: ``python benchmarks/bench_reefs.py [--sizes 0.3,3] [--memory-10m]``, or
+``--profile [--sizes 1,3.7,10]`` for the stage budget (each stage's seconds and peak
+resident memory, the whole field and one 120 m tile of it).
 
 For each size (millions of soundings) a ``reef-field`` survey is simulated at the density
 needed, then timed in the same run:
@@ -41,7 +43,7 @@ from mbinspect.reefs import extract_reefs  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 
 #: ping spacing giving about this many million soundings (256 beams, preset field)
-SPACING = {0.3: 0.75, 1.0: 0.24, 3.0: 0.081, 10.0: 0.0243}
+SPACING = {0.3: 0.75, 1.0: 0.24, 3.0: 0.081, 3.7: 0.066, 10.0: 0.0243}
 
 
 def open3d_pipeline(xyz: np.ndarray) -> int:
@@ -73,13 +75,48 @@ def memory_run(path: str) -> None:
                       "read_peak_gib": read_peak, "read_whole_gib": read_whole}))
 
 
+def profile(sizes: list[float], tile: float = 120.0) -> None:
+    """The stage budget: each stage's seconds and peak resident memory, the whole field in
+    memory and one tile of ``tile`` m from its middle (what a worker of a tiled run does),
+    with the read of the same soundings from an NPZ for scale."""
+    from mbinspect.io import read
+    from mbinspect.timing import StageTimes
+
+    rows = []
+    for size in sizes:
+        sim = simulate("reef-field", seed=0, ping_spacing=SPACING.get(size, 0.75 * 0.3 / size))
+        xyz = sim.cloud.xyz
+        centre = np.median(xyz[:, :2], axis=0)
+        part = np.all(np.abs(xyz[:, :2] - centre) <= tile / 2, axis=1)
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "field.npz"
+            write(sim.cloud, path)
+            t = time.perf_counter()
+            cloud = read(path)
+            read_s = time.perf_counter() - t
+        for where, pts in (("in memory", cloud.xyz), (f"one {tile:g} m tile", xyz[part])):
+            times = StageTimes(memory=True)
+            res = extract_reefs(pts, times=times)
+            times.stop()
+            label = f"{len(pts) / 1e6:.2f} M, {where}"
+            rows += [[label, name, f"{sec:.2f}", f"{peak / 2**30:.2f}"] for name, sec, peak in times.rows()]
+            rows.append([label, f"all ({len(res.reefs)} reefs; the read of the file {read_s:.2f} s)",
+                         f"{times.total():.2f}", ""])
+    print(table(["soundings", "stage", "seconds", "peak resident GiB"], rows))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--profile", action="store_true",
+                    help="print the stage budget at --sizes (default then 1,3.7,10) and stop")
     ap.add_argument("--sizes", default="0.3,3")
     ap.add_argument("--memory-10m", action="store_true")
     ap.add_argument("--memory-formats", default="npz,xyz", help="file formats the 10 M run reads")
     ap.add_argument("--repeat", type=int, default=2)
     args = ap.parse_args()
+    if args.profile:
+        profile([float(v) for v in (args.sizes if args.sizes != "0.3,3" else "1,3.7,10").split(",")])
+        return
     rows = []
     filter_rows = []
     for size in [float(s) for s in args.sizes.split(",")]:

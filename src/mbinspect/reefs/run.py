@@ -11,7 +11,7 @@ import numpy as np
 
 from ..cloud import sources
 from ..errors import DataError, ParameterError
-from ..grid import extent_bytes, machine_memory, sounding_spacing
+from ..grid import extent_bytes, machine_memory, patched_spacing
 from ..io import PointCloud, pipeline_input
 from ..seabed import GROUND_BAND
 from ..timing import StageTimes
@@ -56,7 +56,7 @@ def _check_resolution(pts: np.ndarray, opts: ReefOptions, filter_note: str | Non
     footprint rasters and seabed grids would measure the gaps between soundings (and grow
     with a deep survey's extent) rather than any reef."""
     _enough(pts, filter_note)
-    spacing = sounding_spacing(pts, seed=opts.seed)
+    spacing = patched_spacing(pts, seed=opts.seed, sample=20_000)  # over 1 M: in patches
     most = math.sqrt(opts.min_area)
     if spacing > most / 2:
         raise DataError(f"the soundings lie {spacing:.2f} m apart (median plan distance to the nearest): "

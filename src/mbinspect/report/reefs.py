@@ -42,10 +42,28 @@ def _inside(x: float, y: float, bounds: list[float] | None, margin: float = 10.0
                               and bounds[1] - margin <= y <= bounds[3] + margin)
 
 
+def _draw_objects(ax: Any, result: Any, colours: dict[int, str], bounds: list[float] | None) -> None:
+    """The reefs' outlines and numbers and the other objects on a map: one artist for all
+    outlines and one for all others (a patch and a line each took 3 s of the five maps of a
+    100-reef field); a zoomed map draws only what lies in it."""
+    from matplotlib.collections import PolyCollection
+
+    shown = [(i, r) for i, r in enumerate(result.reefs) if _inside(r.x, r.y, bounds)]
+    outlines = [(np.asarray(r.outline), colours.get(i, "magenta")) for i, r in shown if r.outline]
+    if outlines:
+        ax.add_collection(PolyCollection([o for o, _ in outlines], closed=True, facecolors="none",
+                                         edgecolors=[c for _, c in outlines], linewidths=0.9))
+    if len(result.reefs) <= 400:
+        for _, r in shown:
+            ax.annotate(str(r.id), (r.x, r.y), fontsize=5 if bounds is None else 9, ha="center", va="center")
+    others = np.array([(o.x, o.y) for o in result.others if _inside(o.x, o.y, bounds)]).reshape(-1, 2)
+    if len(others):
+        ax.plot(others[:, 0], others[:, 1], "x", color="orange", ms=4, ls="")
+
+
 def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
               bounds: list[float] | None = None) -> bytes:
     """One reef map: shaded relief, outlines coloured by the score, others, legend, furniture."""
-    from matplotlib.collections import PolyCollection
     from matplotlib.lines import Line2D
 
     plt = mpl()
@@ -64,19 +82,7 @@ def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
     if ev is not None:
         matched = {i for i, _, _ in ev.matches}
         colours = {i: ("tab:green" if i in matched else "tab:red") for i in range(len(result.reefs))}
-    # one artist for all outlines and one for all others (a patch and a line each took 3 s of
-    # the five maps of a 100-reef field); a zoomed map draws only what lies in it
-    shown_reefs = [(i, r) for i, r in enumerate(result.reefs) if _inside(r.x, r.y, bounds)]
-    outlines = [(np.asarray(r.outline), colours.get(i, "magenta")) for i, r in shown_reefs if r.outline]
-    if outlines:
-        ax.add_collection(PolyCollection([o for o, _ in outlines], closed=True, facecolors="none",
-                                         edgecolors=[c for _, c in outlines], linewidths=0.9))
-    if len(result.reefs) <= 400:
-        for _, r in shown_reefs:
-            ax.annotate(str(r.id), (r.x, r.y), fontsize=5 if bounds is None else 9, ha="center", va="center")
-    others = np.array([(o.x, o.y) for o in result.others if _inside(o.x, o.y, bounds)]).reshape(-1, 2)
-    if len(others):
-        ax.plot(others[:, 0], others[:, 1], "x", color="orange", ms=4, ls="")
+    _draw_objects(ax, result, colours, bounds)
     if ev is not None and result.reference_xy is not None:
         ref = np.asarray(result.reference_xy)
         miss = [j for j in ev.unmatched_references]
