@@ -339,7 +339,7 @@ def patched_spacing(points: np.ndarray, *, seed: int = 0, sample: int = 200_000)
     near = np.flatnonzero(flag)
     inner = flag[near] == 2
     pts = xy[near] - lo
-    d, _ = cKDTree(pts).query(pts[inner], k=2)
+    d, _ = cKDTree(pts, balanced_tree=False, compact_nodes=False).query(pts[inner], k=2, workers=-1)
     # a patch is chosen as often as a sounding of it is: each weighs its times chosen, shared
     # among its soundings, so that the median is that of soundings drawn at random
     patch = np.searchsorted(centres, keys[near[inner]])

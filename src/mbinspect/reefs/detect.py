@@ -113,12 +113,13 @@ def _rescue_distances(among: np.ndarray, at: np.ndarray, k: int, kp: int, chunk:
     d16 = np.full(len(at), np.inf)
     if len(among) < 2:
         return dk, d16
-    tree3 = cKDTree(among)
-    tree2 = cKDTree(among[:, :2])
+    # unbalanced trees build in a third of the time and give the same distances
+    tree3 = cKDTree(among, balanced_tree=False, compact_nodes=False)
+    tree2 = cKDTree(among[:, :2], balanced_tree=False, compact_nodes=False)
     for start in range(0, len(at), chunk):
         q = at[start:start + chunk]
-        d3 = tree3.query(q, k=k + 1)[0]
-        d2 = tree2.query(q[:, :2], k=kp + 1)[0]
+        d3 = tree3.query(q, k=k + 1, workers=-1)[0]
+        d2 = tree2.query(q[:, :2], k=kp + 1, workers=-1)[0]
         dk[start:start + len(q)] = d3[:, k] if d3.ndim == 2 else d3
         d16[start:start + len(q)] = d2[:, kp] if d2.ndim == 2 else d2
     return dk, d16
@@ -217,7 +218,7 @@ def reef_points(points: np.ndarray, seabed: Seabed, *, min_height: float = 0.3,
     mask = core.copy()
     if core.any() and low.any():
         tree = cKDTree(pts[core, :2], balanced_tree=False, compact_nodes=False)
-        d, _ = tree.query(pts[low, :2], k=1, distance_upper_bound=link)
+        d, _ = tree.query(pts[low, :2], k=1, distance_upper_bound=link, workers=-1)
         idx = np.flatnonzero(low)
         mask[idx[np.isfinite(d)]] = True
     return mask, h
@@ -274,7 +275,8 @@ def clean_reef_points(points: np.ndarray, is_reef: np.ndarray, *, k: int, std_ra
     idx = np.flatnonzero(is_reef)
     pts = np.asarray(points, np.float64)[idx]
     centre = pts.mean(axis=0)
-    d, _ = cKDTree(pts - centre).query(pts - centre, k=k + 1)
+    d, _ = cKDTree(pts - centre, balanced_tree=False, compact_nodes=False).query(pts - centre, k=k + 1,
+                                                                                  workers=-1)
     mean_d = d[:, 1:].mean(axis=1)
     bi, bj = cell_index(pts, 0.0, 0.0, STAT_BLOCK)
     bi = bi - bi.min()

@@ -268,7 +268,7 @@ def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.
     hist = np.zeros((nbx + 1) * (nby + 1) * SPACING_BINS, np.int64)
     for s in range(0, len(rows), CHUNK):  # near every sounding of a noisy 10 M field: 0.5 GB at once
         part = rows[s:s + CHUNK]
-        dn, _ = tree.query(points[part, :2] - lo, k=2)
+        dn, _ = tree.query(points[part, :2] - lo, k=2, workers=-1)
         mm = np.minimum(np.round(dn[:, 1] * 1000.0).astype(np.int64), SPACING_BINS - 1)
         bi, bj = cell_index(points[part], 0.0, 0.0, SPACING_BLOCK)
         flat = ((bi - bi0 + 1) * (nby + 1) + (bj - bj0 + 1)) * SPACING_BINS + mm
