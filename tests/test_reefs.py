@@ -435,3 +435,29 @@ def test_a_sunk_triangle_that_looks_rounded_is_a_reef_when_its_design_fits():
     designed = extract_reefs(sim.cloud, reference=_reference(sim), seed=2, design="triangle")
     assert designed.evaluation is not None and (designed.evaluation.tp, designed.evaluation.fn) == (9, 0)
     assert all(r.design == "triangle" for r in designed.reefs)
+
+
+def test_verbose_prints_each_stage_and_the_times_are_the_runs(tmp_path, capsys, reef_small):
+    """-v printed no per-stage time (issue 32); the stages' seconds add up to the run's."""
+    import time
+
+    from mbinspect.cli import main
+    from mbinspect.io import write
+    from mbinspect.timing import StageTimes
+
+    times = StageTimes(memory=True)
+    t = time.perf_counter()
+    res = extract_reefs(reef_small.cloud, times=times)
+    took = time.perf_counter() - t
+    times.stop()
+    names = [name for name, _, _ in times.rows()]
+    assert names == ["input checks", "radius filter", "resolution check", "terrain", "seabed", "reef points",
+                     "single reefs", "groups and score"]
+    assert 0.9 * took < times.total() <= took and all(peak > 0 for _, _, peak in times.rows())
+    assert len(res.reefs) == len(extract_reefs(reef_small.cloud).reefs)  # timing changes nothing
+    path = tmp_path / "field.npz"
+    write(reef_small.cloud, path)
+    assert main(["-v", "reefs", str(path), "--crs", "EPSG:32631", "--no-figures",
+                 "--out", str(tmp_path / "o")]) == 0
+    line = [x for x in capsys.readouterr().err.splitlines() if "stages: reading" in x]
+    assert len(line) == 1 and all(w in line[0] for w in ("radius filter", "single reefs", "outputs"))
