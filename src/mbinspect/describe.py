@@ -13,7 +13,7 @@ import numpy as np
 from .checks import positive
 from .cloud import PointCloud, crs_name
 from .formats import SONAR_FORMATS
-from .grid import patched_spacing
+from .grid import corner_cell_keys, patched_spacing
 from .outputs import dataclasses_asdict
 
 __all__ = ["CloudSummary", "describe"]
@@ -93,29 +93,9 @@ def _sonar_summary(cloud: PointCloud) -> dict[str, Any]:
     return out
 
 
-def _cell_keys(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, cell: float, pad: int = 0
-               ) -> tuple[np.ndarray, int]:
-    """Each sounding's cell of ``cell`` metres from ``lo`` as one integer, and the cells per
-    column (``pad`` empty cells around), with as few arrays of N made as can be."""
-    ny = int(extent[1] / cell) + 2 + 2 * pad
-    keys = np.empty(len(xyz), np.int64)
-    column = np.subtract(xyz[:, 0], lo[0])
-    column *= 1.0 / cell
-    np.floor(column, out=column)
-    column += pad
-    keys[:] = column
-    keys *= ny
-    np.subtract(xyz[:, 1], lo[1], out=column)
-    column *= 1.0 / cell
-    np.floor(column, out=column)
-    column += pad
-    keys += column.astype(np.int64)
-    return keys, ny
-
-
 def _covered_cells(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, cell: float) -> float:
     """How many cells of ``cell`` metres hold a sounding."""
-    keys, ny = _cell_keys(xyz, lo, extent, cell)
+    keys, ny = corner_cell_keys(xyz, lo, extent, cell)
     cells = (int(extent[0] / cell) + 2) * ny
     if cells <= 50_000_000:  # a flag per cell: no sort of the soundings
         seen = np.zeros(cells, bool)

@@ -13,7 +13,7 @@ from scipy import ndimage
 
 __all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",
-           "cell_key", "machine_memory", "patched_spacing", "PATCHED"]
+           "cell_key", "machine_memory", "patched_spacing", "PATCHED", "corner_cell_keys"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
@@ -291,6 +291,27 @@ def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0,
     return float(np.median(d[:, k]))
 
 
+def corner_cell_keys(xyz: np.ndarray, lo: np.ndarray, extent: np.ndarray, cell: float, pad: int = 0
+                     ) -> tuple[np.ndarray, int]:
+    """Each sounding's plan cell of ``cell`` metres from the corner ``lo`` (of an ``extent``)
+    as one integer, and the cells per column (``pad`` empty cells around), with as few
+    arrays of N made as can be (10 M soundings: two, where ``cell_index`` makes six)."""
+    ny = int(extent[1] / cell) + 2 + 2 * pad
+    keys = np.empty(len(xyz), np.int64)
+    column = np.subtract(xyz[:, 0], lo[0])
+    column *= 1.0 / cell
+    np.floor(column, out=column)
+    column += pad
+    keys[:] = column
+    keys *= ny
+    np.subtract(xyz[:, 1], lo[1], out=column)
+    column *= 1.0 / cell
+    np.floor(column, out=column)
+    column += pad
+    keys += column.astype(np.int64)
+    return keys, ny
+
+
 #: Above this many soundings :func:`patched_spacing` measures in patches, not over all.
 PATCHED = 1_000_000
 
@@ -319,16 +340,7 @@ def patched_spacing(points: np.ndarray, *, seed: int = 0, sample: int = 200_000)
         return sounding_spacing(xy, sample=sample, seed=seed)
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     side = float(np.sqrt(max(hi[0] - lo[0], 1e-9) * max(hi[1] - lo[1], 1e-9) * 50 / n))
-    ny = int((hi[1] - lo[1]) / side) + 4
-    keys = np.empty(n, np.int64)
-    column = np.subtract(xy[:, 0], lo[0])
-    column *= 1.0 / side
-    keys[:] = column
-    keys += 1
-    keys *= ny
-    np.subtract(xy[:, 1], lo[1], out=column)
-    column *= 1.0 / side
-    keys += column.astype(np.int64) + 1
+    keys, ny = corner_cell_keys(xy, lo, hi - lo, side, pad=1)
     chosen = keys[np.random.default_rng(seed).choice(n, 512, replace=False)]
     centres, times = np.unique(chosen, return_counts=True)
     steps = (np.arange(-1, 2)[:, None] * ny + np.arange(-1, 2)).ravel()
