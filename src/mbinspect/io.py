@@ -3,8 +3,8 @@ format of the table in :mod:`mbinspect.formats`.
 
 Points are ``(N, 3)`` float64 in metres, x east, y north, z elevation (up, so
 depths are negative). Readers never guess the sign of z: exports that write depth
-positive down are read with ``depth_positive=True``. ``mbinspect formats`` lists the
-formats, their extensions and the fields each keeps.
+positive down are read with ``depth_positive=True``. docs/formats.md lists the formats,
+their extensions and the fields each keeps (``FORMATS`` here, ``--format`` on the command line).
 
 Examples
 --------

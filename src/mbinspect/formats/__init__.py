@@ -2,8 +2,8 @@
 every list derived from it.
 
 Adding a format is one module here defining its ``FORMAT`` row and one line in
-``_ROWS`` below; the command line's choices, the extension lookup, the survey's memory
-estimate and ``mbinspect formats`` follow.
+``_ROWS`` below; the command line's ``--format`` choices, the extension lookup and the
+survey's memory estimate follow (and a row in docs/formats.md).
 
 Examples
 --------
