@@ -439,3 +439,21 @@ def test_soundings_far_below_or_far_away_are_named_in_memory_and_in_tiles(tmp_pa
         assert "1 sounding far below the seabed of the survey, down to -650.0 m (median -10.0 m)" in err
         assert "km from the rest of the survey (a navigation jump?) and were left out" in err
         assert "0 points" not in err and "Traceback" not in err
+
+
+def test_a_tiled_run_of_one_sounding_and_a_bad_file_among_good_ones(tmp_path, capsys):
+    """A tiled run with one sounding ended in np.gradient's traceback; one unreadable file
+    among many inputs in a LaspyException."""
+    one = tmp_path / "one.xyz"
+    one.write_text("554845.0 4179000.0 -10.0\n")
+    code = main(["reefs", str(one), "--crs", "EPSG:32610", "--tiled", "--workers", "1",
+                 "--out", str(tmp_path / "o1")])
+    err = capsys.readouterr().err
+    assert code == 5 and "Traceback" not in err and "expected at least 10" in err.splitlines()[-1]
+    good = tmp_path / "good.xyz"
+    good.write_text("".join(f"{554845 + k % 20}.0 {4179000 + k // 20}.0 -10.0\n" for k in range(400)))
+    bad = tmp_path / "bad.las"
+    bad.write_bytes(b"LASF" + bytes(300))
+    for extra in ([], ["--tiled", "--workers", "1"]):
+        _one_line(capsys, main(["reefs", str(good), str(bad), "--crs", "EPSG:32610", *extra,
+                                "--out", str(tmp_path / f"o{len(extra)}")]), "bad.las")

@@ -248,7 +248,10 @@ def check_header(path: Path) -> None:
     if head[25] >= 4 and len(head) >= 255:
         count = max(count, struct.unpack_from("<Q", head, 247)[0])
     problems = []
-    if header_size > size or offset > size:
+    if header_size < 227 or offset < header_size:
+        problems.append(f"its header claims {header_size} bytes and its points start at byte {offset} "
+                        "(a LAS header holds at least 227 bytes, the points follow it)")
+    elif header_size > size or offset > size:
         problems.append(f"its header ({header_size} bytes) or point data offset ({offset:,}) lies past "
                         "its end")
     elif header_size + 54 * n_vlr > offset:
@@ -354,8 +357,14 @@ def _read(path: Path, request: ReadRequest) -> PointCloud:
 def _count(path: Path) -> int:
     import laspy
 
-    with laspy.open(path) as r:
-        return int(r.header.point_count)
+    check_header(path)
+    try:
+        with laspy.open(path) as r:
+            return int(r.header.point_count)
+    except (KeyboardInterrupt, SystemExit, GeneratorExit):
+        raise
+    except BaseException as exc:  # as in a read: laspy raises many types
+        raise InputError(f"{path}: not a readable LAS/LAZ file ({_reason(exc)})") from None
 
 
 FORMAT = Format("las", (".las", ".laz"), _read, _write_las, 30.0, aliases=("laz",), count=_count,
