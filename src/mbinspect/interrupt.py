@@ -14,6 +14,7 @@ however it dies (``mbinspect.io``).
 from __future__ import annotations
 
 import _thread
+import logging
 import os
 import signal
 import threading
@@ -44,6 +45,9 @@ def install() -> None:
 def _watch(sigs: set[signal.Signals]) -> None:
     sig = signal.sigwait(sigs)
     _received.append(int(sig))
+    # from here only our one line speaks: a library logging the workers it was starting as
+    # they were stopped (Dask's nanny: "Failed to start process" and a traceback) is quiet
+    logging.disable(logging.CRITICAL)
     main = threading.main_thread()
     _thread.interrupt_main()
     main.join(GRACE)
