@@ -11,7 +11,7 @@ import os
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["cell_index", "near_rows", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
+__all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",
            "cell_key", "machine_memory", "patched_spacing", "PATCHED", "corner_cell_keys"]
 
@@ -58,27 +58,6 @@ def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[n
     i = np.floor((points[:, 0] - x0) * inv).astype(np.int64)
     j = np.floor((points[:, 1] - y0) * inv).astype(np.int64)
     return i, j
-
-
-def near_rows(points: np.ndarray, rows: np.ndarray, side: float) -> np.ndarray:
-    """The points in the 3 x 3 plan cells of ``side`` m around each of ``rows`` (cells from
-    the points' lowest corner): every point within ``side`` m of one of them in plan, and
-    few more, for a search that need not ask all the points.
-
-    Examples
-    --------
-    >>> pts = np.array([[0.0, 0.0], [0.9, 0.0], [2.5, 0.0], [5.0, 5.0]])
-    >>> near_rows(pts, np.array([0]), 1.0).tolist()
-    [0, 1]
-    """
-    ci, cj = cell_index(points, float(points[:, 0].min()), float(points[:, 1].min()), side)
-    # the occupied cells as sortable keys, one spare column each side: memory and time
-    # follow the points, not the extent (a dense mask of a line 9 km across took 11 s)
-    width = int(ci.max()) + 3
-    key = (cj.astype(np.int64) + 1) * width + (ci + 1)
-    around = np.array([di + dj * width for di in (-1, 0, 1) for dj in (-1, 0, 1)], np.int64)
-    need = np.unique((np.unique(key[rows])[:, None] + around).ravel())
-    return np.flatnonzero(np.isin(key, need))
 
 
 def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

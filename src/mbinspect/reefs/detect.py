@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 
 from ..checks import fail, positive
 from ..filters import FilterReport, radius_outlier
-from ..grid import near_rows
+from ..neighbours import Cells, count_within, kth_distance
 from .ground import Seabed
 
 __all__ = ["radius_keeping", "denoise", "reef_points", "clean_reef_points"]
@@ -67,15 +67,14 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3, 
 
 
 def _spacing_rescue(pts: np.ndarray, candidates: np.ndarray, radius: float, min_neighbors: int,
-                    factor: float, chunk: int = 200_000) -> np.ndarray:
+                    factor: float) -> np.ndarray:
     """Which ``candidates`` have their ``min_neighbors + 1``-th neighbour within ``factor``
-    local plan spacings (see :func:`denoise`), in chunks so memory follows the chunk.
+    local plan spacings (see :func:`denoise`).
 
-    The neighbours are sought among the soundings in the 3 x 3 plan cells of side ``radius``
-    around each candidate, which hold every sounding that near: a distance found within the
-    side is exact (and one beyond it is beyond any limit within it). The few candidates left
-    undecided ask again with cells 8 and 64 times larger, then among all the soundings: the
-    answer of trees over the whole cloud, from trees over a fraction of it."""
+    Each candidate's 16th plan neighbour is sought ring by ring in plan cells, then its
+    limit, and the soundings within it are counted up to ``min_neighbors + 1``
+    (:mod:`mbinspect.neighbours`): exact distances, as a KD-tree over all the soundings
+    would give, from one cell index."""
     local = pts - pts.mean(axis=0)
     rows = np.flatnonzero(candidates)
     out = np.zeros(len(pts), dtype=bool)
@@ -83,46 +82,12 @@ def _spacing_rescue(pts: np.ndarray, candidates: np.ndarray, radius: float, min_
     if len(pts) < k + 1 or len(rows) == 0:
         return out
     kp = min(16, len(pts) - 1)
-    dk = np.full(len(rows), np.inf)
-    limit = np.full(len(rows), np.inf)
-    todo = np.arange(len(rows))
-    for side in (radius, 8 * radius, 64 * radius, math.inf):
-        at = rows[todo]
-        if math.isfinite(side):
-            near = near_rows(local, at, side)
-            d3, d2 = _rescue_distances(local[near], local[at], k, kp, chunk)
-        else:
-            d3, d2 = _rescue_distances(local, local[at], k, kp, chunk)
-        lim = np.maximum(radius, factor * d2 * math.sqrt(math.pi / kp))
-        # a plan spacing found within the side is exact; so is a 3-D distance, and one
-        # beyond the side is beyond any limit within it
-        done = (d2 <= side) & ((d3 <= side) | (lim <= side))
-        dk[todo[done]], limit[todo[done]] = d3[done], lim[done]
-        todo = todo[~done]
-        if len(todo) == 0:
-            break
-    out[rows] = dk <= limit
+    # cells a little wider than the radius: a sounding at the radius is never two cells off
+    cells = Cells.build(local, radius * 1.001)
+    d2 = kth_distance(cells, local[rows], kp + 1, plan=True)
+    lim = np.maximum(radius, factor * d2 * math.sqrt(math.pi / kp))
+    out[rows] = count_within(cells, local[rows], lim, k + 1, strict=False) >= k + 1
     return out
-
-
-def _rescue_distances(among: np.ndarray, at: np.ndarray, k: int, kp: int, chunk: int
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """The ``k``-th 3-D and ``kp``-th plan neighbour distance of each of ``at`` among
-    ``among`` (each of ``at`` is one of ``among``; inf where too few)."""
-    dk = np.full(len(at), np.inf)
-    d16 = np.full(len(at), np.inf)
-    if len(among) < 2:
-        return dk, d16
-    # unbalanced trees build in a third of the time and give the same distances
-    tree3 = cKDTree(among, balanced_tree=False, compact_nodes=False)
-    tree2 = cKDTree(among[:, :2], balanced_tree=False, compact_nodes=False)
-    for start in range(0, len(at), chunk):
-        q = at[start:start + chunk]
-        d3 = tree3.query(q, k=k + 1, workers=-1)[0]
-        d2 = tree2.query(q[:, :2], k=kp + 1, workers=-1)[0]
-        dk[start:start + len(q)] = d3[:, k] if d3.ndim == 2 else d3
-        d16[start:start + len(q)] = d2[:, kp] if d2.ndim == 2 else d2
-    return dk, d16
 
 
 def radius_keeping(points: np.ndarray, min_neighbors: int, share: float = 0.99, *, sample: int = 50_000,

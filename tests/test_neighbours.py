@@ -1,0 +1,67 @@
+"""The cell index's neighbour searches against SciPy's KD-tree, to the bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from mbinspect.neighbours import DENSE_CELLS_PER_POINT, Cells, count_within, kth_distance
+
+
+def _cloud(n: int, extent: float, seed: int) -> np.ndarray:
+    """Millimetre soundings (ties of distance are common), some of them repeated."""
+    rng = np.random.default_rng(seed)
+    p = rng.uniform(0, extent, (n, 3)) + [500_000.0, 6_200_000.0, -20.0]
+    p[:, 2] = -20.0 + rng.normal(0, 0.2, n)
+    p[n // 2:n // 2 + n // 20] = p[:n // 20]
+    return np.round(p, 3)
+
+
+@pytest.mark.parametrize("extent, side", [(8.0, 0.5), (400.0, 0.5), (5.0, 2.0)])
+@pytest.mark.parametrize("plan", [False, True])
+def test_kth_distance_is_the_trees(extent, side, plan):
+    p = _cloud(3000, extent, 1)
+    cells = Cells.build(p, side)
+    assert cells.dense == (cells.nx * cells.ny <= DENSE_CELLS_PER_POINT * len(p) + (1 << 16))
+    tree = cKDTree(p[:, :2] if plan else p)
+    for k in (1, 2, 5, 17):
+        want = tree.query(p[:, :2] if plan else p, k=k)[0]
+        want = want[:, -1] if want.ndim == 2 else want
+        assert np.array_equal(kth_distance(cells, p, k, plan=plan), want)
+    # points that are not soundings, some outside the cloud's cells
+    rng = np.random.default_rng(2)
+    q = p[:50] + rng.normal(0, 0.7 * extent, (50, 3))
+    want = tree.query(q[:, :2] if plan else q, k=3)[0][:, -1]
+    assert np.array_equal(kth_distance(cells, q, 3, plan=plan), want)
+
+
+@pytest.mark.parametrize("extent", [8.0, 400.0])
+def test_count_within_is_the_trees(extent):
+    p = _cloud(3000, extent, 3)
+    local = p - p.mean(axis=0)
+    tree = cKDTree(local)
+    rng = np.random.default_rng(4)
+    for side in (0.5, 0.5005):
+        cells = Cells.build(local, side)
+        for r in (0.3, 0.5, 1.7):
+            # strict: a KD-tree's distance_upper_bound
+            d = tree.query(local, k=6, distance_upper_bound=r)[0]
+            assert np.array_equal(count_within(cells, local, r, 6), np.isfinite(d).sum(axis=1))
+        # at most the radius, each point its own radius: the tree's distances <= it
+        radius = rng.uniform(0.1, 2.0, len(local))
+        d = tree.query(local, k=40)[0]
+        want = np.minimum((d <= radius[:, None]).sum(axis=1), 40)
+        assert np.array_equal(count_within(cells, local, radius, 40, strict=False), want)
+
+
+def test_edges():
+    p = _cloud(30, 3.0, 5)
+    cells = Cells.build(p, 0.5)
+    assert count_within(cells, p[:3], np.inf, 10**6).tolist() == [30, 30, 30]
+    assert np.isinf(kth_distance(cells, p[:3], 31)).all()
+    empty = Cells.build(np.zeros((0, 3)), 0.5)
+    assert count_within(empty, p[:2], 1.0, 5).tolist() == [0, 0]
+    assert np.isinf(kth_distance(empty, p[:2], 1)).all()
+    one = Cells.build(p[:1], 0.5)
+    assert kth_distance(one, p[:1], 1).tolist() == [0.0]
