@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from mbinspect.neighbours import DENSE_CELLS_PER_POINT, Cells, count_within, kth_distance
+from mbinspect.neighbours import DENSE_CELLS_PER_POINT, Cells, count_within, kth_distance, nearest_within
 
 
 def _cloud(n: int, extent: float, seed: int) -> np.ndarray:
@@ -65,3 +65,24 @@ def test_edges():
     assert np.isinf(kth_distance(empty, p[:2], 1)).all()
     one = Cells.build(p[:1], 0.5)
     assert kth_distance(one, p[:1], 1).tolist() == [0.0]
+
+
+@pytest.mark.parametrize("extent", [8.0, 400.0])
+def test_nearest_within_is_the_trees_with_ties_to_the_first_row(extent):
+    p = _cloud(3000, extent, 6)[:, :2]
+    cells = Cells.build(p - p.min(axis=0), 0.3)
+    rng = np.random.default_rng(7)
+    q = p[rng.integers(0, len(p), 500)] - p.min(axis=0) + np.round(rng.normal(0, 0.2, (500, 2)), 3)
+    reach, tie = 0.6, 1e-9
+    d, row = nearest_within(cells, q, reach, tie)
+    want_d, _ = cKDTree(p - p.min(axis=0)).query(q, k=1, distance_upper_bound=reach)
+    assert np.array_equal(d, want_d)
+    found = np.isfinite(d)
+    assert (row[~found] == -1).all()
+    # the row given is the first of those as near (to ``tie``)
+    dist = np.hypot(*(q[found, None, :] - (p - p.min(axis=0))[None, :, :]).transpose(2, 0, 1))
+    first = np.argmax(dist - d[found, None] < tie, axis=1)
+    assert np.array_equal(row[found], first)
+    # a repeated sounding: the first of its copies
+    copies = (p - p.min(axis=0))[len(p) // 2:len(p) // 2 + 3]
+    assert nearest_within(cells, copies, reach, tie)[1].tolist() == [0, 1, 2]

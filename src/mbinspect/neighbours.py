@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-__all__ = ["Cells", "count_within", "kth_distance"]
+__all__ = ["Cells", "count_within", "kth_distance", "nearest_within"]
 
 #: A dense table of cell starts is used while the grid has at most this many cells per
 #: sounding (beyond it, the occupied cells are found by binary search).
@@ -110,6 +110,20 @@ def kth_distance(cells: Cells, at: np.ndarray, k: int, *, plan: bool = False) ->
     if len(q) == 0 or len(cells.xyz) < k or k < 1:
         return np.full(len(q), math.inf)
     return _kth_distance(q, int(k), *cells._args(plan))
+
+
+def nearest_within(cells: Cells, at: np.ndarray, reach: float, tie: float = 0.0, *, plan: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's nearest sounding of ``cells`` nearer than ``reach`` m: its distance (inf
+    when none) and its row in the points the index was built on (-1 when none).
+
+    Among soundings within ``tie`` m of the nearest distance, the first row: the answer
+    depends on the soundings alone, not on how they are searched.
+    """
+    q = np.ascontiguousarray(at, dtype=np.float64)
+    if len(q) == 0 or len(cells.xyz) == 0:
+        return np.full(len(q), math.inf), np.full(len(q), -1, np.int64)
+    return _nearest_within(q, float(reach), float(tie), cells.order, *cells._args(plan))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -245,3 +259,72 @@ def _kth_distance(q, k, dims, xyz, starts, keys, dense, nx, ny, x0, y0, side, to
         if found == k:
             out[a] = math.sqrt(best[k - 1])
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _ring_rows(ci, cj, ring, starts, keys, dense, nx, ny, out):
+    """The sorted rows ``(start, end)`` of the occupied cells of ring ``ring`` around cell
+    ``(ci, cj)``, written to ``out``; their number."""
+    m = 0
+    for j in range(cj - ring, cj + ring + 1):
+        if j < 0 or j >= ny:
+            continue
+        step = 1 if (j == cj - ring or j == cj + ring) else 2 * ring
+        i = ci - ring
+        while i <= ci + ring:
+            if 0 <= i < nx:
+                s, e = _span(j * nx + i, starts, keys, dense)
+                if e > s:
+                    out[m, 0] = s
+                    out[m, 1] = e
+                    m += 1
+            i += step
+    return m
+
+
+@numba.njit(cache=True, nogil=True)
+def _nearest_within(q, reach, tie, order, dims, xyz, starts, keys, dense, nx, ny, x0, y0, side, tol):
+    out_d = np.full(len(q), np.inf)
+    out_row = np.full(len(q), -1, np.int64)
+    last = int(math.ceil((reach + tie + tol) / side))  # rings beyond lie out of reach
+    spans = np.empty((8 * (last + 1) + 1, 2), np.int64)
+    for a in range(len(q)):
+        fx = (q[a, 0] - x0) / side
+        fy = (q[a, 1] - y0) / side
+        ci = int(math.floor(fx))
+        cj = int(math.floor(fy))
+        edge = max(min(fx - ci, ci + 1 - fx, fy - cj, cj + 1 - fy), 0.0)
+        best = np.inf
+        ring = 0
+        while ring <= last:
+            m = _ring_rows(ci, cj, ring, starts, keys, dense, nx, ny, spans)
+            for t in range(m):
+                for b in range(spans[t, 0], spans[t, 1]):
+                    d2 = 0.0
+                    for c in range(dims):  # summed in a KD-tree's order
+                        u = xyz[b, c] - q[a, c]
+                        d2 += u * u
+                    best = min(best, d2)
+            # every sounding within ``tie`` of the nearest has been seen
+            if best < np.inf and math.sqrt(best) + tie <= (ring + edge) * side - tol:
+                break
+            ring += 1
+        dmin = math.sqrt(best)
+        if not dmin < reach:
+            continue
+        row = -1
+        for r in range(min(ring, last) + 1):
+            m = _ring_rows(ci, cj, r, starts, keys, dense, nx, ny, spans)
+            for t in range(m):
+                for b in range(spans[t, 0], spans[t, 1]):
+                    d2 = 0.0
+                    for c in range(dims):
+                        u = xyz[b, c] - q[a, c]
+                        d2 += u * u
+                    d = math.sqrt(d2)
+                    tied = d == dmin or d - dmin < tie
+                    if d < reach and tied and (row < 0 or order[b] < row):
+                        row = order[b]
+        out_d[a] = dmin
+        out_row[a] = row
+    return out_d, out_row

@@ -9,9 +9,9 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
-from scipy.spatial import cKDTree
 
 from ..grid import cell_index, grow
+from ..neighbours import Cells, kth_distance, nearest_within
 
 __all__ = ["Raster", "nearest_label_raster", "label_parts", "TIE"]
 
@@ -99,14 +99,19 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     wide = grow(occ, r + 1)
     idx = np.concatenate([s + _in_cells(points[s:s + CHUNK], wide, lo, cell)
                           for s in range(0, len(points), CHUNK)])
-    tree = cKDTree(points[idx, :2] - lo, balanced_tree=False, compact_nodes=False)
+    # cells holding a few soundings each: the nearest one is a ring or two away
+    density = len(idx) / max(float(wide.sum()) * cell * cell, 1e-12)
+    near = Cells.build(points[idx, :2] - lo, min(max(math.sqrt(3.0 / density), cell), reach))
     # own and bridge are in units of the soundings' typical spacing (median distance to the
     # nearest other sounding), measured around each connected candidate region on its own:
     # a region's answer does not depend on what else the cloud (or the tile) holds
     comp, n_comp = ndimage.label(occ, structure=np.ones((3, 3), bool))
-    spacing = _region_spacing(points, idx, tree, lo, comp, n_comp, cell)
+    spacing = _region_spacing(points, idx, near, lo, comp, n_comp, cell)
     own_c, bridge_c = own * spacing, bridge * spacing
-    d, k = _nearest(tree, centres - lo, reach, idx)
+    # each cell's nearest sounding; among soundings equally near (to TIE: millimetre
+    # coordinates make such ties, and several soundings share a plan position) the first
+    # in the cloud, so that the answer depends on neither the search nor the frame
+    d, k = nearest_within(near, centres - lo, reach + TIE, TIE)
     nearest = np.full((ny, nx), -1, dtype=np.int64)
     ok = np.isfinite(d)
     nearest[cj[ok], ci[ok]] = idx[k[ok]]
@@ -196,20 +201,21 @@ def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall
     # the Gaussian's truncation (4 sigma = 8 cells), one cell of gradient, the maximum's
     # half-width, and the reach from a candidate cell to its nearest sounding
     pad = r + 2 + 8 + 1 + w
+    windows = []
     for c, box in enumerate(ndimage.find_objects(comp), start=1):
-        if box is None:
-            continue
-        mine = order[bounds[c]:bounds[c + 1]]
-        if len(mine) == 0:
-            continue
-        y0, y1 = max(0, box[0].start - pad), min(ny, box[0].stop + pad)
-        x0, x1 = max(0, box[1].start - pad), min(nx, box[1].stop + pad)
-        inside = (ri_j >= y0) & (ri_j < y1) & (ri_i >= x0) & (ri_i < x1)
+        if box is not None and bounds[c + 1] > bounds[c]:
+            windows.append((order[bounds[c]:bounds[c + 1]], max(0, box[0].start - pad),
+                            min(ny, box[0].stop + pad), max(0, box[1].start - pad),
+                            min(nx, box[1].stop + pad)))
+    by_row = np.argsort(ri_j, kind="stable")  # the reef soundings of a window's rows: a slice
+    row_start = np.searchsorted(ri_j[by_row], np.arange(ny + 1))
+    for mine, y0, y1, x0, x1 in windows:
+        inside = by_row[row_start[y0]:row_start[y1]]
+        inside = inside[(ri_i[inside] >= x0) & (ri_i[inside] < x1)]
         hmax = np.zeros((y1 - y0, x1 - x0))
         np.maximum.at(hmax, (ri_j[inside] - y0, ri_i[inside] - x0), height[ri[inside]])
         local = ndimage.maximum_filter(hmax, size=2 * w + 1)
-        smooth = ndimage.gaussian_filter(hmax, 2.0)
-        gy, gx = np.gradient(smooth)
+        gy, gx = np.gradient(ndimage.gaussian_filter(hmax, 2.0))
         s_src, a, b = src[mine], sj[mine] - y0, si[mine] - x0
         on_wall = is_reef[s_src] & (height[s_src] < wall * local[a, b])
         g = np.column_stack([gx[a, b], gy[a, b]])
@@ -220,25 +226,6 @@ def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall
         close[cj[hit], ci[hit]] = inward[on_wall]
 
 
-def _nearest(tree: cKDTree, xy: np.ndarray, reach: float, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each cell centre's nearest sounding within ``reach``; among soundings equally near
-    (to :data:`TIE`: millimetre coordinates make such ties, and several soundings share a
-    plan position), the one first in the cloud, so that the answer does not depend on the
-    tree or the frame."""
-    kk = min(4, len(rows))
-    if kk < 2:
-        return tree.query(xy, k=1, distance_upper_bound=reach + TIE, workers=-1)
-    dk, ik = tree.query(xy, k=kk, distance_upper_bound=reach + TIE, workers=-1)
-    d, k = dk[:, 0], ik[:, 0]
-    found = np.isfinite(d)
-    tied = found[:, None] & np.isfinite(dk) & (np.where(np.isfinite(dk), dk, 0.0) - d[:, None] < TIE)
-    if tied[:, 1:].any():
-        order = np.where(tied, rows[np.minimum(ik, len(rows) - 1)], np.iinfo(np.int64).max)
-        pick = np.argmin(order, axis=1)
-        k = np.where(found, ik[np.arange(len(ik)), pick], k)
-    return d, k
-
-
 #: Side (m) of the plan blocks over which the sounding spacing around reef candidates is
 #: counted, and how many blocks each way a candidate region looks (5 to 10 m).
 SPACING_BLOCK = 5.0
@@ -247,7 +234,7 @@ SPACING_REACH = 1
 SPACING_BINS = 1000
 
 
-def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.ndarray, comp: np.ndarray,
+def _region_spacing(points: np.ndarray, rows: np.ndarray, near: Cells, lo: np.ndarray, comp: np.ndarray,
                     n: int, cell: float) -> np.ndarray:
     """The median distance to the nearest other sounding, over the soundings near reef
     points (``rows``) within :data:`SPACING_REACH` blocks of :data:`SPACING_BLOCK` m of
@@ -267,9 +254,10 @@ def _region_spacing(points: np.ndarray, rows: np.ndarray, tree: cKDTree, lo: np.
     nbx, nby = bi1 - bi0 + 1, bj1 - bj0 + 1
     hist = np.zeros((nbx + 1) * (nby + 1) * SPACING_BINS, np.int64)
     for s in range(0, len(rows), CHUNK):  # near every sounding of a noisy 10 M field: 0.5 GB at once
-        part = rows[s:s + CHUNK]
-        dn, _ = tree.query(points[part, :2] - lo, k=2, workers=-1)
-        mm = np.minimum(np.round(dn[:, 1] * 1000.0).astype(np.int64), SPACING_BINS - 1)
+        # in the index's order (its memory in turn): the counts do not depend on it
+        part = rows[near.order[s:s + CHUNK]]
+        dn = kth_distance(near, near.xyz[s:s + CHUNK], 2)
+        mm = np.minimum(np.round(dn * 1000.0).astype(np.int64), SPACING_BINS - 1)
         bi, bj = cell_index(points[part], 0.0, 0.0, SPACING_BLOCK)
         flat = ((bi - bi0 + 1) * (nby + 1) + (bj - bj0 + 1)) * SPACING_BINS + mm
         hist += np.bincount(flat, minlength=len(hist))
