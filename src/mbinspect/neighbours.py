@@ -154,6 +154,16 @@ def _counting_sort(pts, x0, y0, side, nx, ny):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _dist2(xyz, b, q, a, dims):
+    """Squared distance of sorted sounding ``b`` from point ``a``, summed in a KD-tree's order."""
+    d2 = 0.0
+    for c in range(dims):
+        u = xyz[b, c] - q[a, c]
+        d2 += u * u
+    return d2
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _span(key: int, starts: np.ndarray, keys: np.ndarray, dense: bool) -> tuple[int, int]:
     """The first and past-last sorted rows of cell ``key`` (empty when unoccupied)."""
     if dense:
@@ -168,10 +178,7 @@ def _span(key: int, starts: np.ndarray, keys: np.ndarray, dense: bool) -> tuple[
 def _count_cell(q, a, ra, r2, strict, s, e, xyz, dims, n, cap):
     """``n`` plus the soundings ``s:e`` within reach of point ``a``, stopping at ``cap``."""
     for b in range(s, e):
-        d2 = 0.0
-        for c in range(dims):  # summed in a KD-tree's order
-            t = xyz[b, c] - q[a, c]
-            d2 += t * t
+        d2 = _dist2(xyz, b, q, a, dims)
         if (d2 < r2) if strict else (math.sqrt(d2) <= ra):
             n += 1
             if n >= cap:
@@ -212,6 +219,7 @@ def _count_within(q, r, cap, strict, dims, xyz, starts, keys, dense, nx, ny, x0,
 def _kth_distance(q, k, dims, xyz, starts, keys, dense, nx, ny, x0, y0, side, tol):
     out = np.full(len(q), np.inf)
     best = np.empty(k)
+    spans = np.empty((8 * (nx + ny) + 1, 2), np.int64)  # the cells of any ring
     for a in range(len(q)):
         fx = (q[a, 0] - x0) / side
         fy = (q[a, 1] - y0) / side
@@ -223,32 +231,21 @@ def _kth_distance(q, k, dims, xyz, starts, keys, dense, nx, ny, x0, y0, side, to
         found = 0
         ring = 0
         while True:
-            # the cells at Chebyshev distance ``ring`` from the point's own cell
-            for j in range(cj - ring, cj + ring + 1):
-                if j < 0 or j >= ny:
-                    continue
-                step = 1 if (j == cj - ring or j == cj + ring) else 2 * ring
-                i = ci - ring
-                while i <= ci + ring:
-                    if 0 <= i < nx:
-                        s, e = _span(j * nx + i, starts, keys, dense)
-                        for b in range(s, e):
-                            d2 = 0.0
-                            for c in range(dims):  # summed in a KD-tree's order
-                                t = xyz[b, c] - q[a, c]
-                                d2 += t * t
-                            if found < k:
-                                found += 1
-                                p = found - 1
-                            elif d2 < best[k - 1]:
-                                p = k - 1
-                            else:
-                                continue
-                            while p > 0 and best[p - 1] > d2:  # insertion into the sorted k best
-                                best[p] = best[p - 1]
-                                p -= 1
-                            best[p] = d2
-                    i += step
+            m = _ring_rows(ci, cj, ring, starts, keys, dense, nx, ny, spans)
+            for t in range(m):
+                for b in range(spans[t, 0], spans[t, 1]):
+                    d2 = _dist2(xyz, b, q, a, dims)
+                    if found < k:
+                        found += 1
+                        p = found - 1
+                    elif d2 < best[k - 1]:
+                        p = k - 1
+                    else:
+                        continue
+                    while p > 0 and best[p - 1] > d2:  # insertion into the sorted k best
+                        best[p] = best[p - 1]
+                        p -= 1
+                    best[p] = d2
             # every sounding beyond this ring lies farther than this in plan
             limit = (ring + max(edge, 0.0)) * side - tol
             if found == k and limit > 0 and best[k - 1] <= limit * limit:
@@ -300,10 +297,7 @@ def _nearest_within(q, reach, tie, order, dims, xyz, starts, keys, dense, nx, ny
             m = _ring_rows(ci, cj, ring, starts, keys, dense, nx, ny, spans)
             for t in range(m):
                 for b in range(spans[t, 0], spans[t, 1]):
-                    d2 = 0.0
-                    for c in range(dims):  # summed in a KD-tree's order
-                        u = xyz[b, c] - q[a, c]
-                        d2 += u * u
+                    d2 = _dist2(xyz, b, q, a, dims)
                     best = min(best, d2)
             # every sounding within ``tie`` of the nearest has been seen
             if best < np.inf and math.sqrt(best) + tie <= (ring + edge) * side - tol:
@@ -317,10 +311,7 @@ def _nearest_within(q, reach, tie, order, dims, xyz, starts, keys, dense, nx, ny
             m = _ring_rows(ci, cj, r, starts, keys, dense, nx, ny, spans)
             for t in range(m):
                 for b in range(spans[t, 0], spans[t, 1]):
-                    d2 = 0.0
-                    for c in range(dims):
-                        u = xyz[b, c] - q[a, c]
-                        d2 += u * u
+                    d2 = _dist2(xyz, b, q, a, dims)
                     d = math.sqrt(d2)
                     tied = d == dmin or d - dmin < tie
                     if d < reach and tied and (row < 0 or order[b] < row):
