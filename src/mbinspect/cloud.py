@@ -20,6 +20,7 @@ import numpy as np
 from .checks import check_points
 from .errors import InputError, NotEnoughPointsError, ParameterError
 from .geometry import crop_mask
+from .grid import bounds
 from .strays import deep_outliers, duplicate_soundings, stray_soundings
 
 __all__ = ["PointCloud", "crs_name", "pipeline_input", "sources", "ping_ranges"]
@@ -111,7 +112,7 @@ class PointCloud:
         """Minimum and maximum corner, each shape (3,)."""
         if len(self) == 0:
             raise NotEnoughPointsError("the cloud has no points")
-        return self.xyz.min(axis=0), self.xyz.max(axis=0)
+        return bounds(self.xyz, 3)
 
 
 def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: int = 10

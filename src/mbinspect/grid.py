@@ -11,13 +11,30 @@ import os
 import numpy as np
 from scipy import ndimage
 
+from .neighbours import sort_in_cells
+
 __all__ = ["cell_index", "sorted_cells", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",
-           "cell_key", "machine_memory", "patched_spacing", "PATCHED", "corner_cell_keys"]
+           "cell_key", "machine_memory", "patched_spacing", "PATCHED", "corner_cell_keys", "bounds"]
 
 
 #: Cells by which a sounding on a cell edge is counted into the cell above it.
 EDGE = 1e-6
+
+
+def bounds(points: np.ndarray, dims: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest of each of the first ``dims`` coordinates, column by column
+    (a reduction over axis 0 of an (N, 3) array is ten times slower).
+
+    Examples
+    --------
+    >>> lo, hi = bounds(np.array([[1.0, 5.0, 0.0], [3.0, 2.0, 9.0]]))
+    >>> lo.tolist(), hi.tolist()
+    ([1.0, 2.0], [3.0, 5.0])
+    """
+    p = np.asarray(points)
+    return (np.array([p[:, k].min() for k in range(dims)], dtype=p.dtype),
+            np.array([p[:, k].max() for k in range(dims)], dtype=p.dtype))
 
 
 def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
@@ -63,7 +80,7 @@ def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[n
 def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(key, z)`` sorted by cell, then by z, with z to the millimetre.
 
-    Both are packed into one integer and sorted by value (much faster than an argsort).
+    A counting sort by cell, then each cell's few values sorted (much faster than an argsort).
 
     Parameters
     ----------
@@ -81,9 +98,12 @@ def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray
     # subset of the soundings, such as a tile of a survey
     z0 = 1000.0 * float(np.floor(z.min() / 1000.0))
     zq = np.round((z - z0) * 1000.0).astype(np.int64)
-    span = int(zq.max()) + 1
-    packed = np.sort(key * span + zq)
-    ks, zq = np.divmod(packed, span)
+    done = sort_in_cells(key, zq)
+    if done is not None:
+        ks, zq = done
+    else:  # cells far more than soundings: packed into one integer and sorted by value
+        span = int(zq.max()) + 1
+        ks, zq = np.divmod(np.sort(key * span + zq), span)
     return ks, z0 + zq / 1000.0
 
 
@@ -206,7 +226,8 @@ def extent_bytes(points: np.ndarray, cell: float) -> float:
     """
     if not len(points):
         return 0.0
-    span = np.ptp(np.asarray(points)[:, :2], axis=0) / cell + 1
+    lo, hi = bounds(points)
+    span = (hi - lo) / cell + 1
     return float(span[0] * span[1] * BYTES_PER_CELL)
 
 
@@ -263,7 +284,7 @@ def sounding_spacing(points: np.ndarray, *, sample: int = 20_000, seed: int = 0,
     xy = np.asarray(points, np.float64)[:, :2]
     if len(xy) < k + 1:
         return float("nan")
-    xy = xy - xy.min(axis=0)
+    xy = xy - bounds(xy)[0]
     tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)
     pick = xy if len(xy) <= sample else xy[np.random.default_rng(seed).choice(len(xy), sample, replace=False)]
     d, _ = tree.query(pick, k=k + 1, workers=-1)
@@ -317,7 +338,7 @@ def patched_spacing(points: np.ndarray, *, seed: int = 0, sample: int = 200_000)
     n = len(xy)
     if n <= PATCHED:
         return sounding_spacing(xy, sample=sample, seed=seed)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    lo, hi = bounds(xy)
     side = float(np.sqrt(max(hi[0] - lo[0], 1e-9) * max(hi[1] - lo[1], 1e-9) * 50 / n))
     keys, ny = corner_cell_keys(xy, lo, hi - lo, side, pad=1)
     chosen = keys[np.random.default_rng(seed).choice(n, 512, replace=False)]

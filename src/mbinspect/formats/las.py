@@ -18,6 +18,7 @@ import numpy as np
 
 from ..cloud import PointCloud
 from ..errors import InputError, InputWarning
+from ..grid import bounds
 from .base import Format, ReadRequest
 
 __all__ = ["FORMAT", "iter_las", "check_header", "rejected_left_out", "NOISE_CLASSES"]
@@ -316,7 +317,7 @@ def _write_las(cloud: PointCloud, path: Path, precision: int) -> None:
     import laspy
 
     header = laspy.LasHeader(point_format=6, version="1.4")
-    lo = cloud.xyz.min(axis=0) if len(cloud) else np.zeros(3)
+    lo = bounds(cloud.xyz, 3)[0] if len(cloud) else np.zeros(3)
     header.offsets = np.floor(lo)
     header.scales = np.full(3, 10.0**-precision)
     extra = {k: v for k, v in cloud.fields.items()

@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import ndimage
 
-from ..grid import cell_index, grow
+from ..grid import bounds, cell_index, grow
 from ..neighbours import Cells, kth_distance, nearest_within
 
 __all__ = ["Raster", "nearest_label_raster", "label_parts", "TIE"]
@@ -83,8 +83,9 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
     # whole cells from (0, 0), as in any tile, and room for the whole ring of soundings
     # around the candidates (``wide``): a raster that cut it would see fewer of them
     pad = 2 * reach + 3 * cell
-    lo = np.floor((rp.min(axis=0) - pad) / cell) * cell
-    hi = rp.max(axis=0) + pad
+    rlo, rhi = bounds(rp)
+    lo = np.floor((rlo - pad) / cell) * cell
+    hi = rhi + pad
     nx = int(math.ceil((hi[0] - lo[0]) / cell))
     ny = int(math.ceil((hi[1] - lo[1]) / cell))
     # only cells within ``reach`` of a reef point are candidates
@@ -126,20 +127,25 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
         rows = np.flatnonzero(ok)
         _wall_rule(points, is_reef, height, wall, _Cells(cj, ci, centres, rows, idx[k[rows]]),
                    _Raster(lo, cell, comp, r), close)
-    core = reef & close
-    # bridge the gaps between pings inside a reef; closing does not grow outer edges
+    closed = _bridged(reef & close, comp, bridge_c, cell)
+    filled = ndimage.binary_fill_holes(closed & reef) & reef
+    return filled, nearest, float(lo[0]), float(lo[1])
+
+
+def _bridged(core: np.ndarray, comp: np.ndarray, bridge: np.ndarray, cell: float) -> np.ndarray:
+    """The gaps between pings inside each candidate region closed over its ``bridge`` (m);
+    closing does not grow outer edges."""
     closed = np.zeros_like(core)
     for c, box in enumerate(ndimage.find_objects(comp), start=1):
         if box is None:
             continue
-        rc = max(1, int(round(bridge_c[c] / cell)))
+        rc = max(1, int(round(bridge[c] / cell)))
         yy, xx = np.mgrid[-rc:rc + 1, -rc:rc + 1]
         sub = np.pad(core[box] & (comp[box] == c), rc + 1)
         disk = xx * xx + yy * yy <= rc * rc
         done = ndimage.binary_closing(sub, structure=disk)[rc + 1:-rc - 1, rc + 1:-rc - 1]
         closed[box] |= done & (comp[box] == c)
-    filled = ndimage.binary_fill_holes(closed & reef) & reef
-    return filled, nearest, float(lo[0]), float(lo[1])
+    return closed
 
 
 #: Soundings whose raster cells are found at a time (all of 10 M at once took 0.5 GB).

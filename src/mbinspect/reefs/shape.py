@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from ..grid import bounds
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 
@@ -139,7 +140,8 @@ def line_levels(xy: np.ndarray, line: np.ndarray, ground: tuple[np.ndarray, ...]
     [0.05, -0.05]
     """
     gx, gy, gline, gh = ground
-    (x0, y0), (x1, y1) = xy[:, :2].min(axis=0) - margin, xy[:, :2].max(axis=0) + margin
+    lo, hi = bounds(xy)
+    (x0, y0), (x1, y1) = lo - margin, hi + margin
     a, b = np.searchsorted(gx, [x0, x1], side="left")
     near = slice(a, b)
     inside = (gy[near] >= y0) & (gy[near] <= y1)

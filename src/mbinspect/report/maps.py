@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..grid import bounds as plan_bounds
 from ..outputs import atomic_path
 
 __all__ = ["mpl", "save_figure", "plan_image", "map_furniture"]
@@ -70,8 +71,7 @@ def plan_image(points: np.ndarray, *, cell: float = 0.25, bounds: Sequence[float
     """
     p = np.asarray(points, np.float64)
     if bounds is None:
-        xmin, ymin = p[:, :2].min(axis=0)
-        xmax, ymax = p[:, :2].max(axis=0)
+        (xmin, ymin), (xmax, ymax) = plan_bounds(p)
     else:
         xmin, ymin, xmax, ymax = bounds
         inside = (p[:, 0] >= xmin) & (p[:, 0] <= xmax) & (p[:, 1] >= ymin) & (p[:, 1] <= ymax)

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..grid import bounds as plan_bounds
 from .gis import crs_label, crs_name, crs_of
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
@@ -68,7 +69,7 @@ def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
 
     plt = mpl()
     p = np.asarray(points, np.float64)
-    span = float(np.ptp(p[:, :2], axis=0).max()) if bounds is None else max(bounds[2] - bounds[0],
+    span = float(np.subtract(*plan_bounds(p)[::-1]).max()) if bounds is None else max(bounds[2] - bounds[0],
                                                                           bounds[3] - bounds[1])
     cell = max(0.1 if bounds is not None else 0.2, span / 900.0)
     img, ext = plan_image(p, cell=cell, bounds=bounds)

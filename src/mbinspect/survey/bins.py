@@ -17,7 +17,7 @@ from ..checks import EARTH_BOUND_TEXT, beyond_the_earth
 from ..cloud import PointCloud
 from ..errors import InputError
 from ..formats import format_of
-from ..grid import pack_cells, unpack_cells
+from ..grid import bounds, pack_cells, unpack_cells
 from ..io import in_metres, read
 from .inputs import SurveyCRS, conform
 
@@ -135,8 +135,9 @@ def bin_file(path: str | os.PathLike[str], file_index: int, block: float, workdi
             continue
         n += len(cloud)
         xy = cloud.xyz[:, :2]
-        lo = np.minimum(lo, xy.min(axis=0))
-        hi = np.maximum(hi, xy.max(axis=0))
+        lo_c, hi_c = bounds(xy)
+        lo = np.minimum(lo, lo_c)
+        hi = np.maximum(hi, hi_c)
         table = _table(cloud, file_index, fields)
         lines.append(np.unique(table["file_line"]))
         cells.append(pack_cells(np.floor(xy[:, 0] / STRAY_CELL), np.floor(xy[:, 1] / STRAY_CELL)))
