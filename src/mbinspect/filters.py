@@ -46,7 +46,8 @@ def _positive(name: str, value: float) -> None:
         raise ParameterError(f"{name}: {value} must be a positive number")
 
 
-def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3) -> np.ndarray:
+def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3,
+                   cells: Cells | None = None) -> np.ndarray:
     """The reef paper's radius filter: a point is noise if it has ``<= n`` neighbours within ``r``.
 
     Parameters
@@ -57,6 +58,9 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     min_neighbors : int
         A point with ``min_neighbors`` or fewer other points within ``radius`` is noise
         (the paper's n); default 3.
+    cells : Cells, optional
+        An index of these very points (:class:`mbinspect.neighbours.Cells`, cells of any
+        side), when the caller has one.
 
     Returns
     -------
@@ -75,7 +79,8 @@ def radius_outlier(points: np.ndarray, *, radius: float = 0.5, min_neighbors: in
     keep = np.zeros(len(pts), dtype=bool)
     if len(pts) == 0:
         return keep
-    cells = Cells.build(pts, radius)
+    if cells is None:
+        cells = Cells.build(pts, radius)
     # itself, and more than n others
     keep[cells.order] = count_within(cells, cells.xyz, radius, min_neighbors + 2) >= min_neighbors + 2
     return keep

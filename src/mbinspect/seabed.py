@@ -29,7 +29,8 @@ from scipy import ndimage
 from .checks import check_points
 from .errors import NotEnoughPointsError, ParameterError
 from .fit import Plane, msac, ransac_trials
-from .grid import cell_index, sorted_cells, sorted_percentile
+from .grid import cell_index, cell_segments
+from .neighbours import segment_percentile
 
 __all__ = ["GridSurface", "grid_seabed", "PlaneSeabed", "ransac_plane"]
 
@@ -121,10 +122,10 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     key = ci * ny + cj
     # multipath spikes lie metres below the seabed: in a sparse cell the low percentile
     # would pick one, so only points at most ``low_cut`` below the cell median count
-    ks, zs = sorted_cells(key, pts[:, 2])
-    median = sorted_percentile(ks, zs, 50.0, nx * ny)
-    sane = zs >= median[ks] - low_cut
-    grid = sorted_percentile(ks[sane], zs[sane], percentile, nx * ny).reshape(nx, ny)
+    starts, zs = cell_segments(key, pts[:, 2])
+    starts = np.pad(starts, (0, nx * ny + 1 - len(starts)), mode="edge")  # every cell
+    median = segment_percentile(starts, zs, 50.0)
+    grid = segment_percentile(starts, zs, percentile, median, below=low_cut).reshape(nx, ny)
     observed = np.isfinite(grid)
     filled = _fill_nearest(grid)
     filled = ndimage.median_filter(filled, size=3, mode="nearest")
@@ -134,8 +135,7 @@ def grid_seabed(points: np.ndarray, *, cell: float = 1.0, window: float = 5.0,
     # each cell from the soundings close to the opened surface (the ground), by median
     # (the opened surface at each sounding's own cell: bilinear is not needed for a band,
     # and the soundings stay sorted by cell and z)
-    ground = np.abs(zs - opened.ravel()[ks]) <= ground_band
-    med = sorted_percentile(ks[ground], zs[ground], 50.0, nx * ny).reshape(nx, ny)
+    med = segment_percentile(starts, zs, 50.0, opened, band=ground_band).reshape(nx, ny)
     # cells without ground (under a structure) take a Gaussian-weighted mean of the ground
     # cells around them (normalized convolution), not the opened surface, which sits low
     # on slopes and sand-wave flanks; far from any ground the opened surface stays

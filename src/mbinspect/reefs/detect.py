@@ -8,7 +8,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..checks import fail, positive
+from ..checks import check_points, fail, positive
 from ..filters import FilterReport, radius_outlier
 from ..neighbours import Cells, count_within, kth_distance
 from .ground import Seabed
@@ -56,37 +56,36 @@ def denoise(points: np.ndarray, *, radius: float = 0.5, min_neighbors: int = 3, 
     >>> int(denoise(grid)[0].sum()), int(denoise(grid, spacing_factor=3)[0].sum())
     (0, 400)
     """
-    keep = radius_outlier(points, radius=radius, min_neighbors=min_neighbors)
+    pts = check_points(points, minimum=0)
+    cells = Cells.build(pts, radius)  # one index for both searches
+    keep = radius_outlier(pts, radius=radius, min_neighbors=min_neighbors, cells=cells)
     params: dict[str, float] = {"radius": radius, "min_neighbors": min_neighbors}
     if spacing_factor > 0 and not keep.all():
-        pts = np.asarray(points, np.float64)
-        rescued = _spacing_rescue(pts, ~keep, radius, min_neighbors, spacing_factor)
+        rescued = _spacing_rescue(pts, cells, ~keep, radius, min_neighbors, spacing_factor)
         keep |= rescued
         params.update(spacing_factor=spacing_factor, kept_by_spacing=int(rescued.sum()))
     return keep, FilterReport("radius", len(keep), int((~keep).sum()), params)
 
 
-def _spacing_rescue(pts: np.ndarray, candidates: np.ndarray, radius: float, min_neighbors: int,
-                    factor: float) -> np.ndarray:
+def _spacing_rescue(pts: np.ndarray, cells: Cells, candidates: np.ndarray, radius: float,
+                    min_neighbors: int, factor: float) -> np.ndarray:
     """Which ``candidates`` have their ``min_neighbors + 1``-th neighbour within ``factor``
     local plan spacings (see :func:`denoise`).
 
     Each candidate's 16th plan neighbour is sought ring by ring in plan cells, then its
     limit, and the soundings within it are counted up to ``min_neighbors + 1``
-    (:mod:`mbinspect.neighbours`): exact distances, as a KD-tree over all the soundings
-    would give, from one cell index."""
-    local = pts - pts.mean(axis=0)
+    (:mod:`mbinspect.neighbours`, ``cells`` an index of ``pts``): exact distances, as a
+    KD-tree over all the soundings would give, in the survey's own coordinates, so that a
+    tile of it gets the very distances the whole survey gets."""
     rows = np.flatnonzero(candidates)
     out = np.zeros(len(pts), dtype=bool)
     k = min_neighbors + 1
     if len(pts) < k + 1 or len(rows) == 0:
         return out
     kp = min(16, len(pts) - 1)
-    # cells a little wider than the radius: a sounding at the radius is never two cells off
-    cells = Cells.build(local, radius * 1.001)
-    d2 = kth_distance(cells, local[rows], kp + 1, plan=True)
+    d2 = kth_distance(cells, pts[rows], kp + 1, plan=True)
     lim = np.maximum(radius, factor * d2 * math.sqrt(math.pi / kp))
-    out[rows] = count_within(cells, local[rows], lim, k + 1, strict=False) >= k + 1
+    out[rows] = count_within(cells, pts[rows], lim, k + 1, strict=False) >= k + 1
     return out
 
 
