@@ -85,6 +85,14 @@ class Cells:
         xyz = np.column_stack([pts[:, c][order] for c in range(pts.shape[1])])
         return cls(side, x0, y0, nx, ny, False, keys, starts, order, xyz)
 
+    def run(self, first: int, last: int) -> tuple[int, int]:
+        """The sorted rows of the cells with keys ``first`` to ``last`` (one row of
+        cells, from column ``first % nx`` to ``last % nx``), as ``(start, end)``."""
+        if self.dense:
+            return int(self.starts[first]), int(self.starts[last + 1])
+        a, b = np.searchsorted(self.keys, [first, last + 1])
+        return int(self.starts[a]), int(self.starts[b])
+
     def _args(self, plan: bool) -> tuple:
         dims = 2 if plan else self.xyz.shape[1]
         # the cells' edges are known to within the rounding of coordinates this large: a

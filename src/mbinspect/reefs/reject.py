@@ -27,7 +27,15 @@ from ..grid import sounding_spacing
 from .footprint import Raster
 from .options import ReefOptions
 from .results import OtherObject, Reef
-from .shape import DOME_PLATEAU, cell_soundings, dome_shape, line_levels, rounded_shape, thickness
+from .shape import (
+    DOME_PLATEAU,
+    GroundSoundings,
+    cell_soundings,
+    dome_shape,
+    line_levels,
+    rounded_shape,
+    thickness,
+)
 
 __all__ = ["Candidate", "Context", "Rule", "RULES", "why_not_a_reef", "other_object",
            "LOWEST_SHARE", "DESIGN_WITNESS_SCALE", "SHAPE_SOUNDINGS_ACROSS"]
@@ -67,8 +75,8 @@ class Context:
         The footprint raster (cells -> nearest sounding).
     ping, line : ndarray of int, shape (N,), optional
         Each sounding's ping and survey line, when the file gives them.
-    ground : tuple of ndarray, optional
-        The seabed soundings sorted by x (:func:`~mbinspect.reefs.shape.ground_by_x`).
+    ground : GroundSoundings, optional
+        The seabed soundings (:func:`~mbinspect.reefs.shape.ground_soundings`).
     """
 
     points: np.ndarray
@@ -76,7 +84,7 @@ class Context:
     raster: Raster | None = None
     ping: np.ndarray | None = None
     line: np.ndarray | None = None
-    ground: tuple[np.ndarray, ...] | None = None
+    ground: GroundSoundings | None = None
 
 
 #: A rule: why a candidate is not a reef, or None.

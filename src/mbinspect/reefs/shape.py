@@ -7,15 +7,18 @@ Measures only; :mod:`mbinspect.reefs.reject` turns them into reasons.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..grid import bounds
+from ..neighbours import Cells
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 
-__all__ = ["rounded_shape", "dome_shape", "ground_by_x", "line_levels", "thickness", "cell_soundings",
-           "PLATEAU_DEPTH", "TOP_SHARE", "DOME_BASE", "DOME_PLATEAU", "LEVEL_MARGIN", "LEVEL_MIN"]
+__all__ = ["rounded_shape", "dome_shape", "ground_soundings", "GroundSoundings", "line_levels", "thickness",
+           "cell_soundings", "PLATEAU_DEPTH", "TOP_SHARE", "DOME_BASE", "DOME_PLATEAU", "LEVEL_MARGIN",
+           "LEVEL_MIN"]
 
 
 #: Share of a candidate's height counted as its top (``rounded_plateau``), and the share of
@@ -115,37 +118,59 @@ LEVEL_MARGIN = 2.0
 LEVEL_MIN = 10
 
 
-def ground_by_x(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, line: np.ndarray
-                 ) -> tuple[np.ndarray, ...]:
-    """The seabed soundings (not reef points, within the ground band), sorted by x: their
-    x, y, line and height above the seabed."""
+@dataclass(frozen=True, eq=False)
+class GroundSoundings:
+    """The seabed soundings (not reef points, within the ground band) in plan cells of
+    :data:`LEVEL_MARGIN` m (``cells``), with each one's ``line`` and ``height`` above the
+    seabed in the cells' order: those around a candidate are a few runs of them."""
+
+    cells: Cells
+    line: np.ndarray
+    height: np.ndarray
+
+    def within(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The lines and heights of the soundings with ``lo[0] <= x < hi[0]`` and
+        ``lo[1] <= y <= hi[1]``."""
+        c = self.cells
+        if len(c.xyz) == 0:
+            return self.line[:0], self.height[:0]
+        (i0, i1), (j0, j1) = ((max(0, math.floor((a - o) / c.side)), min(n - 1, math.floor((b - o) / c.side)))
+                              for a, b, o, n in ((lo[0], hi[0], c.x0, c.nx), (lo[1], hi[1], c.y0, c.ny)))
+        runs = [c.run(j * c.nx + i0, j * c.nx + i1) for j in range(j0, j1 + 1)] if i0 <= i1 else []
+        rows = np.concatenate([np.arange(a, b) for a, b in runs]) if runs else np.zeros(0, np.int64)
+        x, y = c.xyz[rows, 0], c.xyz[rows, 1]
+        take = rows[(x >= lo[0]) & (x < hi[0]) & (y >= lo[1]) & (y <= hi[1])]
+        return self.line[take], self.height[take]
+
+
+def ground_soundings(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, line: np.ndarray
+                     ) -> GroundSoundings:
+    """The seabed soundings (not reef points, within the ground band), in plan cells."""
     rows = np.flatnonzero(~is_reef & (np.abs(height) <= GROUND_BAND))
-    rows = rows[np.argsort(points[rows, 0], kind="stable")]
-    return points[rows, 0], points[rows, 1], line[rows], height[rows]
+    cells = Cells.build(points[rows, :2], LEVEL_MARGIN)
+    rows = rows[cells.order]
+    return GroundSoundings(cells, line[rows], height[rows])
 
 
-def line_levels(xy: np.ndarray, line: np.ndarray, ground: tuple[np.ndarray, ...],
+def line_levels(xy: np.ndarray, line: np.ndarray, ground: GroundSoundings,
                 margin: float = LEVEL_MARGIN) -> np.ndarray:
     """Each sounding's line's level: the median height above the seabed of that line's
     seabed soundings within ``margin`` (m) of the soundings' extent (``ground`` as
-    :func:`ground_by_x` gives). Strips that disagree by a few centimetres put a reef's
+    :func:`ground_soundings` gives). Strips that disagree by a few centimetres put a reef's
     flat top at two heights, which spread like a dome's; a line with fewer than
     :data:`LEVEL_MIN` seabed soundings there keeps its height.
 
     Examples
     --------
     >>> gx = np.repeat(np.arange(10.0), 4)
-    >>> ground = (gx, np.zeros(40), np.tile([1, 1, 2, 2], 10), np.tile([0.05, 0.05, -0.05, -0.05], 10))
+    >>> pts = np.column_stack([gx, np.zeros(40), np.zeros(40)])
+    >>> ground = ground_soundings(pts, np.zeros(40, bool), np.tile([0.05, 0.05, -0.05, -0.05], 10),
+    ...                           np.tile([1, 1, 2, 2], 10))
     >>> line_levels(np.array([[4.0, 0.5], [5.0, 0.5]]), np.array([1, 2]), ground).tolist()
     [0.05, -0.05]
     """
-    gx, gy, gline, gh = ground
     lo, hi = bounds(xy)
-    (x0, y0), (x1, y1) = lo - margin, hi + margin
-    a, b = np.searchsorted(gx, [x0, x1], side="left")
-    near = slice(a, b)
-    inside = (gy[near] >= y0) & (gy[near] <= y1)
-    lines, h = gline[near][inside], gh[near][inside]
+    lines, h = ground.within(lo - margin, hi + margin)
     level = np.zeros(len(line))
     for k in np.unique(line):
         own = h[lines == k]

@@ -17,7 +17,7 @@ from .measure import measure_reef
 from .options import ReefOptions
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
 from .results import OtherObject, Reef
-from .shape import ground_by_x
+from .shape import ground_soundings
 from .split import split_reefs
 
 __all__ = ["reef_islands", "single_reefs", "ISLAND_GAP", "ISLAND_CELL"]
@@ -150,7 +150,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     others = [other_object(measure_reef(points, p, raster, seabed, is_reef=is_reef),
                            f"smaller than `min_area` {options.min_area:g} m²") for p in small]
     context = Context(points, is_reef, raster, ping, line,
-                      ground_by_x(points, is_reef, height, line) if line is not None else None)
+                      ground_soundings(points, is_reef, height, line) if line is not None else None)
     kept, kept_members = [], []
     for r, f, p, m in zip(reefs, free, parts, _members(points, is_reef, raster, parts), strict=True):
         misfit = design_misfit(Candidate(r, p), context, options)
