@@ -257,8 +257,17 @@ def _sort_in_cells(key, value, n_cells):
         fill[key[row]] += 1
         vs[p] = value[row]
     for c in range(n_cells):
-        if starts[c + 1] - starts[c] > 1:
-            vs[starts[c]:starts[c + 1]] = np.sort(vs[starts[c]:starts[c + 1]])
+        a, b = starts[c], starts[c + 1]
+        if b - a > 32:
+            vs[a:b] = np.sort(vs[a:b])
+        else:  # a few values: sorted in place
+            for t in range(a + 1, b):
+                v = vs[t]
+                u = t
+                while u > a and vs[u - 1] > v:
+                    vs[u] = vs[u - 1]
+                    u -= 1
+                vs[u] = v
     return starts, vs
 
 

@@ -102,12 +102,13 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
                           for s in range(0, len(points), CHUNK)])
     # cells holding a few soundings each: the nearest one is a ring or two away
     density = len(idx) / max(float(wide.sum()) * cell * cell, 1e-12)
-    near = Cells.build(points[idx, :2] - lo, min(max(math.sqrt(3.0 / density), cell), reach))
+    pxy = points[idx, :2]
+    near = Cells.build(pxy - lo, min(max(math.sqrt(3.0 / density), cell), reach))
     # own and bridge are in units of the soundings' typical spacing (median distance to the
     # nearest other sounding), measured around each connected candidate region on its own:
     # a region's answer does not depend on what else the cloud (or the tile) holds
     comp, n_comp = ndimage.label(occ, structure=np.ones((3, 3), bool))
-    spacing = _region_spacing(points, idx, near, lo, comp, n_comp, cell)
+    spacing = _region_spacing(pxy, near, comp, n_comp, lo, cell)
     own_c, bridge_c = own * spacing, bridge * spacing
     # each cell's nearest sounding; among soundings equally near (to TIE: millimetre
     # coordinates make such ties, and several soundings share a plan position) the first
@@ -240,31 +241,29 @@ SPACING_REACH = 1
 SPACING_BINS = 1000
 
 
-def _region_spacing(points: np.ndarray, rows: np.ndarray, near: Cells, lo: np.ndarray, comp: np.ndarray,
-                    n: int, cell: float) -> np.ndarray:
+def _region_spacing(xy: np.ndarray, near: Cells, comp: np.ndarray, n: int, lo: np.ndarray, cell: float
+                    ) -> np.ndarray:
     """The median distance to the nearest other sounding, over the soundings near reef
-    points (``rows``) within :data:`SPACING_REACH` blocks of :data:`SPACING_BLOCK` m of
-    each candidate region (index 1..n of ``comp``; 0 gets ``cell``), to the millimetre.
-    (:data:`SPACING_REACH` blocks: up to 10 m.)
+    points (``xy``, indexed by ``near`` less ``lo``) within :data:`SPACING_REACH` blocks of
+    :data:`SPACING_BLOCK` m of each candidate region (index 1..n of ``comp``; 0 gets
+    ``cell``), to the millimetre. (:data:`SPACING_REACH` blocks: up to 10 m.)
 
     Blocks lie on a lattice from (0, 0) and distances are counted in millimetre bins with a
     summed-area table, so that a region's spacing is exact, deterministic and the same in
     any tile of a survey whose buffer holds its neighbourhood."""
     out = np.full(n + 1, cell)
-    if len(rows) < 2 or n == 0:
+    if len(xy) < 2 or n == 0:
         return out
-    # the blocks the rows span (cell_index is monotonic: the corners' blocks bound them all)
-    corners = np.array([[points[rows, 0].min(), points[rows, 1].min()],
-                        [points[rows, 0].max(), points[rows, 1].max()]])
-    (bi0, bi1), (bj0, bj1) = (v.tolist() for v in cell_index(corners, 0.0, 0.0, SPACING_BLOCK))
+    # the blocks the soundings span (cell_index is monotonic: the corners' blocks bound them all)
+    (bi0, bi1), (bj0, bj1) = (v.tolist() for v in cell_index(np.array(bounds(xy)), 0.0, 0.0, SPACING_BLOCK))
     nbx, nby = bi1 - bi0 + 1, bj1 - bj0 + 1
     hist = np.zeros((nbx + 1) * (nby + 1) * SPACING_BINS, np.int64)
-    for s in range(0, len(rows), CHUNK):  # near every sounding of a noisy 10 M field: 0.5 GB at once
+    for s in range(0, len(xy), CHUNK):  # near every sounding of a noisy 10 M field: 0.5 GB at once
         # in the index's order (its memory in turn): the counts do not depend on it
-        part = rows[near.order[s:s + CHUNK]]
+        part = near.order[s:s + CHUNK]
         dn = kth_distance(near, near.xyz[s:s + CHUNK], 2)
         mm = np.minimum(np.round(dn * 1000.0).astype(np.int64), SPACING_BINS - 1)
-        bi, bj = cell_index(points[part], 0.0, 0.0, SPACING_BLOCK)
+        bi, bj = cell_index(xy[part], 0.0, 0.0, SPACING_BLOCK)
         flat = ((bi - bi0 + 1) * (nby + 1) + (bj - bj0 + 1)) * SPACING_BINS + mm
         hist += np.bincount(flat, minlength=len(hist))
     hist = hist.astype(np.int32).reshape(nbx + 1, nby + 1, SPACING_BINS)

@@ -131,9 +131,10 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     keep, filters, filter_note = _denoise(pts, opts)
     lap("radius filter")
     report(0.25)
-    _check_resolution(pts[keep], opts, filter_note)
+    clean = pts[keep]
+    _check_resolution(clean, opts, filter_note)
     lap("resolution check")
-    ground = screen_terrain(pts[keep], local=local, seabed=opts.seabed, exclude_rough=opts.exclude_rough,
+    ground = screen_terrain(clean, local=local, seabed=opts.seabed, exclude_rough=opts.exclude_rough,
                             max_slope_deg=opts.max_slope_deg, max_roughness=opts.max_roughness,
                             seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window)
     warnings = notes + ([filter_note] if filter_note else []) + list(ground.warnings)
