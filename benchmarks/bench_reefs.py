@@ -1,8 +1,9 @@
 """Reef extraction speed beside an Open3D pipeline doing the paper's steps, and peak memory.
 
 Run: ``python benchmarks/bench_reefs.py [--sizes 0.3,3] [--memory-10m]``, or
-``--profile [--sizes 1,3.7,10]`` for the stage budget (each stage's seconds and peak
-resident memory, the whole field and one 120 m tile of it).
+``--profile [--sizes 1,3.7,10] [--read-formats npz,xyz]`` for the stage budget (each stage's
+seconds and peak resident memory, the whole field and one 120 m tile of it, beside the
+library's read of the same soundings from those formats).
 
 For each size (millions of soundings) a ``reef-field`` survey is simulated at the density
 needed, then timed in the same run:
@@ -75,32 +76,40 @@ def memory_run(path: str) -> None:
                       "read_peak_gib": read_peak, "read_whole_gib": read_whole}))
 
 
-def profile(sizes: list[float], tile: float = 120.0) -> None:
+def profile(sizes: list[float], tile: float = 120.0, formats: tuple[str, ...] = ("npz",)) -> None:
     """The stage budget: each stage's seconds and peak resident memory, the whole field in
     memory and one tile of ``tile`` m from its middle (what a worker of a tiled run does),
-    with the read of the same soundings from an NPZ for scale."""
+    with the library's read of the same soundings from each of ``formats`` for scale and
+    the ratio of the extraction to the fastest read."""
     from mbinspect.io import read
     from mbinspect.timing import StageTimes
 
     rows = []
+    # the compiled searches loaded once, before any time is taken
+    extract_reefs(simulate("reef-field", seed=0, ping_spacing=0.75).cloud)
     for size in sizes:
         sim = simulate("reef-field", seed=0, ping_spacing=SPACING.get(size, 0.75 * 0.3 / size))
         xyz = sim.cloud.xyz
         centre = np.median(xyz[:, :2], axis=0)
         part = np.all(np.abs(xyz[:, :2] - centre) <= tile / 2, axis=1)
+        reads = {}
         with tempfile.TemporaryDirectory() as d:
-            path = Path(d) / "field.npz"
-            write(sim.cloud, path)
-            t = time.perf_counter()
-            cloud = read(path)
-            read_s = time.perf_counter() - t
+            for fmt in formats:
+                path = Path(d) / f"field.{fmt}"
+                write(sim.cloud, path)
+                t = time.perf_counter()
+                cloud = read(path)
+                reads[fmt] = time.perf_counter() - t
         for where, pts in (("in memory", cloud.xyz), (f"one {tile:g} m tile", xyz[part])):
             times = StageTimes(memory=True)
             res = extract_reefs(pts, times=times)
             times.stop()
             label = f"{len(pts) / 1e6:.2f} M, {where}"
             rows += [[label, name, f"{sec:.2f}", f"{peak / 2**30:.2f}"] for name, sec, peak in times.rows()]
-            rows.append([label, f"all ({len(res.reefs)} reefs; the read of the file {read_s:.2f} s)",
+            read_s = ", ".join(f"{fmt} {sec:.2f} s" for fmt, sec in reads.items())
+            rows.append([label, f"all ({len(res.reefs)} reefs; {len(pts) / times.total() / 1e6:.2f} M/s; "
+                         f"the read of the file: {read_s}; extraction / fastest read "
+                         f"{times.total() / min(reads.values()) * len(xyz) / len(pts):.1f}x per sounding)",
                          f"{times.total():.2f}", ""])
     print(table(["soundings", "stage", "seconds", "peak resident GiB"], rows))
 
@@ -112,10 +121,12 @@ def main() -> None:
     ap.add_argument("--sizes", default="0.3,3")
     ap.add_argument("--memory-10m", action="store_true")
     ap.add_argument("--memory-formats", default="npz,xyz", help="file formats the 10 M run reads")
+    ap.add_argument("--read-formats", default="npz", help="file formats whose read --profile times")
     ap.add_argument("--repeat", type=int, default=2)
     args = ap.parse_args()
     if args.profile:
-        profile([float(v) for v in (args.sizes if args.sizes != "0.3,3" else "1,3.7,10").split(",")])
+        profile([float(v) for v in (args.sizes if args.sizes != "0.3,3" else "1,3.7,10").split(",")],
+                formats=tuple(args.read_formats.split(",")))
         return
     rows = []
     filter_rows = []

@@ -6,7 +6,17 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from mbinspect.neighbours import DENSE_CELLS_PER_POINT, Cells, count_within, kth_distance, nearest_within
+from mbinspect import neighbours
+from mbinspect.grid import cell_segments, sorted_cells, sorted_percentile
+from mbinspect.neighbours import (
+    DENSE_CELLS_PER_POINT,
+    Cells,
+    count_within,
+    floor_cells,
+    kth_distance,
+    nearest_within,
+    segment_percentile,
+)
 
 
 def _cloud(n: int, extent: float, seed: int) -> np.ndarray:
@@ -86,3 +96,48 @@ def test_nearest_within_is_the_trees_with_ties_to_the_first_row(extent):
     # a repeated sounding: the first of its copies
     copies = (p - p.min(axis=0))[len(p) // 2:len(p) // 2 + 3]
     assert nearest_within(cells, copies, reach, tie)[1].tolist() == [0, 1, 2]
+
+
+def test_searches_split_among_threads_give_the_same_answers(monkeypatch):
+    p = _cloud(4000, 30.0, 8)
+    cells = Cells.build(p, 0.5)
+    one = (count_within(cells, p, 0.6, 9), kth_distance(cells, p, 4), nearest_within(cells, p + 0.01, 0.6))
+    monkeypatch.setattr(neighbours, "SPLIT_FROM", 10)
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    monkeypatch.setattr(neighbours.os, "sched_getaffinity", lambda pid: {0, 1, 2}, raising=False)
+    assert neighbours.threads() == 3
+    split = (count_within(cells, p, 0.6, 9), kth_distance(cells, p, 4), nearest_within(cells, p + 0.01, 0.6))
+    assert np.array_equal(one[0], split[0]) and np.array_equal(one[1], split[1])
+    assert np.array_equal(one[2][0], split[2][0]) and np.array_equal(one[2][1], split[2][1])
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")  # what Dask's workers set
+    assert neighbours.threads() == 1
+
+
+def test_cell_segments_and_their_percentiles_are_numpys():
+    rng = np.random.default_rng(9)
+    key = rng.integers(0, 300, 20_000)
+    z = np.round(rng.normal(-20.0, 0.8, len(key)), 3)
+    starts, zs = cell_segments(key, z)
+    ks, zz = sorted_cells(key, z)
+    order = np.lexsort((z, key))
+    assert np.array_equal(ks, key[order]) and np.allclose(zz, z[order], atol=5e-4)
+    assert np.array_equal(np.diff(starts), np.bincount(key, minlength=300))
+    median = segment_percentile(starts, zs, 50.0)
+    assert np.array_equal(median, sorted_percentile(ks, zz, 50.0, 300))
+    sane = zz >= median[ks] - 1.0
+    want = sorted_percentile(ks[sane], zz[sane], 10.0, 300)
+    assert np.array_equal(segment_percentile(starts, zs, 10.0, median, below=1.0), want)
+    ref = median + 0.2
+    near = np.abs(zz - ref[ks]) <= 0.3
+    want = sorted_percentile(ks[near], zz[near], 50.0, 300)
+    assert np.array_equal(segment_percentile(starts, zs, 50.0, ref, band=0.3), want, equal_nan=True)
+
+
+def test_floor_cells_is_numpys_floor():
+    rng = np.random.default_rng(10)
+    p = np.round(rng.uniform(500_000.0, 500_050.0, (50_000, 3)), 3)  # millimetres on cell edges
+    cases = ((0.0, 0.0, 10.0, 1e-6), (500_000.0, 500_000.0, 2.0, 0.0), (123.4, 5.6, 1 / 0.3, 0.0))
+    for x0, y0, inv, edge in cases:
+        i, j = floor_cells(p, x0, y0, inv, edge, (7, -3))
+        assert np.array_equal(i, np.floor((p[:, 0] - x0) * inv + edge).astype(np.int64) - 7)
+        assert np.array_equal(j, np.floor((p[:, 1] - y0) * inv + edge).astype(np.int64) + 3)

@@ -217,10 +217,10 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
     zc = np.where(near >= 0, points[np.maximum(near, 0), 2], sea)
     volume = float(np.sum(np.maximum(zc - sea, 0.0)) * c * c)
     height = z_top - z_sea
-    mask = np.zeros((ny, nx), dtype=bool)
-    mask[cj, ci] = True
     j0, j1, i0, i1 = cj.min(), cj.max() + 1, ci.min(), ci.max() + 1
-    edge = outline(mask[j0:j1, i0:i1], raster.x0 + i0 * c, raster.y0 + j0 * c, c)
+    mask = np.zeros((j1 - j0, i1 - i0), dtype=bool)  # its own cells, not the raster's
+    mask[cj - j0, ci - i0] = True
+    edge = outline(mask, raster.x0 + i0 * c, raster.y0 + j0 * c, c)
     return Reef(reef_id, x, y, z_sea, z_top, height, float(len(cells) * c * c), rect.length,
                 rect.width, rect.bearing_deg, volume, rect.length * rect.width * height,
                 int(len(pidx)), outline=tuple(map(tuple, np.round(edge, 3).tolist())))
