@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1] / "src" / "mbinspect"
 #: those below.
 LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (0, ("errors", "version", "checks", "outputs", "options", "grid", "strays", "geometry", "cloud",
-         "interrupt", "timing", "neighbours")),
+         "interrupt", "timing", "neighbours", "cellsort")),
     (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
          "pipeline")),
     (2, ("seabed", "filters", "segment")),

@@ -7,16 +7,9 @@ import pytest
 from scipy.spatial import cKDTree
 
 from mbinspect import neighbours
+from mbinspect.cellsort import DENSE_CELLS_PER_POINT, floor_cells, segment_percentile
 from mbinspect.grid import cell_segments, sorted_cells, sorted_percentile
-from mbinspect.neighbours import (
-    DENSE_CELLS_PER_POINT,
-    Cells,
-    count_within,
-    floor_cells,
-    kth_distance,
-    nearest_within,
-    segment_percentile,
-)
+from mbinspect.neighbours import Cells, count_within, kth_distance, nearest_within
 
 
 def _cloud(n: int, extent: float, seed: int) -> np.ndarray:

@@ -11,7 +11,7 @@ import os
 import numpy as np
 from scipy import ndimage
 
-from .neighbours import floor_cells, sort_in_cells
+from .cellsort import floor_cells, sort_in_cells
 
 __all__ = ["cell_index", "sorted_cells", "cell_segments", "sorted_percentile", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",

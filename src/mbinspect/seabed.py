@@ -26,11 +26,11 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from .cellsort import segment_percentile
 from .checks import check_points
 from .errors import NotEnoughPointsError, ParameterError
 from .fit import Plane, msac, ransac_trials
 from .grid import cell_index, cell_segments
-from .neighbours import segment_percentile
 
 __all__ = ["GridSurface", "grid_seabed", "PlaneSeabed", "ransac_plane"]
 
