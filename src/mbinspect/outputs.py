@@ -89,9 +89,16 @@ def to_jsonable(value: Any) -> Any:
     >>> to_jsonable({"a": np.float64(1.5), "b": np.array([1, 2]), "c": float("nan")})
     {'a': 1.5, 'b': [1, 2], 'c': None}
     """
+    kind = type(value)
+    if kind is float:  # the leaves first: outlines hold hundreds of thousands
+        return value if math.isfinite(value) else None
+    if kind is int or kind is str or kind is bool or value is None:
+        return value
     if isinstance(value, dict):
         return {str(k): to_jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
+        if all(type(v) is float and math.isfinite(v) for v in value):  # a coordinate pair
+            return list(value)
         return [to_jsonable(v) for v in value]
     if isinstance(value, np.ndarray):
         return to_jsonable(value.tolist())
