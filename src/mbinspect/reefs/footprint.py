@@ -208,15 +208,14 @@ def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall
     # the Gaussian's truncation (4 sigma = 8 cells), one cell of gradient, the maximum's
     # half-width, and the reach from a candidate cell to its nearest sounding
     pad = r + 2 + 8 + 1 + w
-    windows = []
-    for c, box in enumerate(ndimage.find_objects(comp), start=1):
-        if box is not None and bounds[c + 1] > bounds[c]:
-            windows.append((order[bounds[c]:bounds[c + 1]], max(0, box[0].start - pad),
-                            min(ny, box[0].stop + pad), max(0, box[1].start - pad),
-                            min(nx, box[1].stop + pad)))
     by_row = np.argsort(ri_j, kind="stable")  # the reef soundings of a window's rows: a slice
     row_start = np.searchsorted(ri_j[by_row], np.arange(ny + 1))
-    for mine, y0, y1, x0, x1 in windows:
+    for c, box in enumerate(ndimage.find_objects(comp), start=1):
+        if box is None or bounds[c + 1] == bounds[c]:
+            continue
+        mine = order[bounds[c]:bounds[c + 1]]
+        y0, y1 = max(0, box[0].start - pad), min(ny, box[0].stop + pad)
+        x0, x1 = max(0, box[1].start - pad), min(nx, box[1].stop + pad)
         inside = by_row[row_start[y0]:row_start[y1]]
         inside = inside[(ri_i[inside] >= x0) & (ri_i[inside] < x1)]
         hmax = np.zeros((y1 - y0, x1 - x0))
