@@ -40,7 +40,7 @@ def bounds(points: np.ndarray, dims: int = 2) -> tuple[np.ndarray, np.ndarray]:
 def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[np.ndarray, np.ndarray]:
     """Plan grid cell ``(i, j)`` of each point, for cells of ``cell`` m from ``(x0, y0)``.
 
-    In one compiled pass (:func:`mbinspect.neighbours.floor_cells`).
+    In one compiled pass (:func:`mbinspect.cellsort.floor_cells`).
 
     Parameters
     ----------
