@@ -8,7 +8,7 @@ from scipy.spatial import cKDTree
 
 from mbinspect import neighbours
 from mbinspect.cellsort import DENSE_CELLS_PER_POINT, floor_cells, segment_percentile
-from mbinspect.grid import cell_segments, sorted_cells, sorted_percentile
+from mbinspect.grid import cell_percentile, cell_segments
 from mbinspect.neighbours import Cells, count_within, kth_distance, nearest_within
 
 
@@ -106,24 +106,35 @@ def test_searches_split_among_threads_give_the_same_answers(monkeypatch):
     assert neighbours.threads() == 1
 
 
+def _numpy_percentile(ks: np.ndarray, zs: np.ndarray, q: float, size: int) -> np.ndarray:
+    """The per-cell percentile of values sorted by (cell, value), in NumPy (the reference)."""
+    out = np.full(size, np.nan)
+    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+    counts = np.diff(np.r_[starts, len(ks)])
+    out[ks[starts]] = zs[starts + np.floor(q / 100.0 * (counts - 1)).astype(np.int64)]
+    return out
+
+
 def test_cell_segments_and_their_percentiles_are_numpys():
     rng = np.random.default_rng(9)
     key = rng.integers(0, 300, 20_000)
     z = np.round(rng.normal(-20.0, 0.8, len(key)), 3)
-    starts, zs = cell_segments(key, z)
-    ks, zz = sorted_cells(key, z)
+    starts, zz = cell_segments(key, z)
     order = np.lexsort((z, key))
-    assert np.array_equal(ks, key[order]) and np.allclose(zz, z[order], atol=5e-4)
+    ks = key[order]
+    assert np.allclose(zz, z[order], atol=5e-4)
     assert np.array_equal(np.diff(starts), np.bincount(key, minlength=300))
-    median = segment_percentile(starts, zs, 50.0)
-    assert np.array_equal(median, sorted_percentile(ks, zz, 50.0, 300))
+    median = segment_percentile(starts, zz, 50.0)
+    assert np.array_equal(median, _numpy_percentile(ks, zz, 50.0, 300))
+    padded = np.r_[median, np.full(10, np.nan)]  # cells past the last sounding's are empty
+    assert np.array_equal(cell_percentile(key, z, 50.0, 310), padded, equal_nan=True)
     sane = zz >= median[ks] - 1.0
-    want = sorted_percentile(ks[sane], zz[sane], 10.0, 300)
-    assert np.array_equal(segment_percentile(starts, zs, 10.0, median, below=1.0), want)
+    want = _numpy_percentile(ks[sane], zz[sane], 10.0, 300)
+    assert np.array_equal(segment_percentile(starts, zz, 10.0, median, below=1.0), want)
     ref = median + 0.2
     near = np.abs(zz - ref[ks]) <= 0.3
-    want = sorted_percentile(ks[near], zz[near], 50.0, 300)
-    assert np.array_equal(segment_percentile(starts, zs, 50.0, ref, band=0.3), want, equal_nan=True)
+    want = _numpy_percentile(ks[near], zz[near], 50.0, 300)
+    assert np.array_equal(segment_percentile(starts, zz, 50.0, ref, band=0.3), want, equal_nan=True)
 
 
 def test_floor_cells_is_numpys_floor():

@@ -11,9 +11,9 @@ import os
 import numpy as np
 from scipy import ndimage
 
-from .cellsort import floor_cells, sort_in_cells
+from .cellsort import floor_cells, segment_percentile, sort_in_cells
 
-__all__ = ["cell_index", "sorted_cells", "cell_segments", "sorted_percentile", "cell_percentile", "grow",
+__all__ = ["cell_index", "cell_segments", "cell_percentile", "grow",
            "coverage", "sounding_spacing", "BYTES_PER_CELL", "extent_bytes", "pack_cells", "unpack_cells",
            "cell_key", "machine_memory", "patched_spacing", "PATCHED", "corner_cell_keys", "bounds"]
 
@@ -74,25 +74,6 @@ def cell_index(points: np.ndarray, x0: float, y0: float, cell: float) -> tuple[n
     return floor_cells(points, x0, y0, inv)
 
 
-def sorted_cells(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(key, z)`` sorted by cell, then by z, with z to the millimetre.
-
-    Parameters
-    ----------
-    key : ndarray of int, shape (N,)
-        Cell number of each sounding (0 or more).
-    z : ndarray, shape (N,)
-        Elevations (m).
-
-    Returns
-    -------
-    keys, z : ndarray, shape (N,)
-        Sorted by cell, then by z (m, to the millimetre).
-    """
-    starts, zs = cell_segments(key, z)
-    return np.repeat(np.arange(len(starts) - 1), np.diff(starts)), zs
-
-
 def cell_segments(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The elevations sorted by cell, then by z, to the millimetre, and each cell's first
     row (``starts``, cells ``0 .. key.max()`` and one more): cell ``c`` holds
@@ -115,32 +96,6 @@ def cell_segments(key: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarra
         ks, zq = np.divmod(np.sort(key * span + zq), span)
         starts = np.searchsorted(ks, np.arange(int(ks[-1]) + 2))
     return starts, z0 + zq / 1000.0
-
-
-def sorted_percentile(ks: np.ndarray, zs: np.ndarray, q: float, size: int) -> np.ndarray:
-    """Per-cell ``q`` percentile of z for arrays already sorted by (cell, z); NaN if empty.
-
-    Parameters
-    ----------
-    ks, zs : ndarray, shape (N,)
-        Cell numbers and elevations (m) sorted by cell, then z (:func:`sorted_cells`).
-    q : float
-        Percentile, 0 to 100.
-    size : int
-        Number of cells.
-
-    Returns
-    -------
-    ndarray, shape (size,)
-        The percentile of each cell (m); NaN where a cell holds nothing.
-    """
-    out = np.full(size, np.nan)
-    if len(ks) == 0:
-        return out
-    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-    counts = np.diff(np.r_[starts, len(ks)])
-    out[ks[starts]] = zs[starts + np.floor(q / 100.0 * (counts - 1)).astype(np.int64)]
-    return out
 
 
 def cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.ndarray:
@@ -168,7 +123,8 @@ def cell_percentile(key: np.ndarray, z: np.ndarray, q: float, size: int) -> np.n
     """
     if len(key) == 0:
         return np.full(size, np.nan)
-    return sorted_percentile(*sorted_cells(key, z), q, size)
+    starts, zs = cell_segments(key, z)
+    return segment_percentile(np.pad(starts, (0, size + 1 - len(starts)), mode="edge"), zs, q)
 
 
 def grow(mask: np.ndarray, r: int) -> np.ndarray:
