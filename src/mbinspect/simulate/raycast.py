@@ -175,20 +175,40 @@ def _box_target(box: Box, kind: int, ident: int, material: str) -> Target:
                    _bind(_hit_box, box))
 
 
-def _first_object_hits(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
+def _spans(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each ray's plan extent between the highest target's top and ``t``: x0, x1, y0, y1."""
+    p = o + t[:, None] * d
+    ztop = max(tg.top for tg in targets)
+    t_top = np.clip((ztop - o[:, 2]) / d[:, 2], 0.0, None)
+    q = o + np.minimum(t_top, t)[:, None] * d
+    return (np.minimum(q[:, 0], p[:, 0]), np.maximum(q[:, 0], p[:, 0]),
+            np.minimum(q[:, 1], p[:, 1]), np.maximum(q[:, 1], p[:, 1]))
+
+
+def rays_near(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray, spread: float
+              ) -> np.ndarray:
+    """Which rays pass within ``spread`` × range of a target's plan box before ``t``: the
+    beams whose cone (of that tangent half-width) may meet an object."""
+    near = np.zeros(len(t), bool)
+    if not targets or not len(t):
+        return near
+    sx0, sx1, sy0, sy1 = _spans(targets, o, d, t)
+    reach = np.where(np.isfinite(t), t, 0.0) * spread
+    for tg in targets:
+        xmin, xmax, ymin, ymax = tg.bbox
+        near |= ((sx0 - reach <= xmax) & (sx1 + reach >= xmin)
+                 & (sy0 - reach <= ymax) & (sy1 + reach >= ymin))
+    return near
+
+
+def first_object_hits(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
                        ) -> Iterator[tuple[Target, np.ndarray, np.ndarray, np.ndarray]]:
     """For each target, the rays that meet it before ``t`` (updated in place as they do):
     yields the target, those rays' indices, their ray parameters and surface normals."""
     if not targets:
         return
-    p = o + t[:, None] * d
-    ztop = max(tg.top for tg in targets)
-    t_top = np.clip((ztop - o[:, 2]) / d[:, 2], 0.0, None)
-    q = o + np.minimum(t_top, t)[:, None] * d
-    sx0 = np.minimum(q[:, 0], p[:, 0])
-    sx1 = np.maximum(q[:, 0], p[:, 0])
-    sy0 = np.minimum(q[:, 1], p[:, 1])
-    sy1 = np.maximum(q[:, 1], p[:, 1])
+    sx0, sx1, sy0, sy1 = _spans(targets, o, d, t)
     order = np.argsort(sx0)
     sx0s = sx0[order]
     widest = float((sx1 - sx0).max()) if len(sx0) else 0.0
@@ -247,29 +267,43 @@ def hit_objects(scene: Scene, o: np.ndarray, d: np.ndarray, t_max: np.ndarray
     t = np.array(t_max, dtype=float)
     label = np.full(len(t), LABELS["seabed"], dtype=np.int8)
     ident = np.zeros(len(t), dtype=np.int32)
-    for tg, idx, _, _ in _first_object_hits(targets(scene), o, d, t):
+    for tg, idx, _, _ in first_object_hits(targets(scene), o, d, t):
         label[idx] = tg.kind
         ident[idx] = tg.ident
     return t, label, ident
 
 
-def cast(scene: Scene, targets: list[Target], o: np.ndarray, d: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """First hit of every ray: t, label, object id, surface normal, material index."""
+@dataclass(frozen=True)
+class Hits:
+    """The first hit of every ray: its ray parameter, what it hit (:data:`LABELS` code and
+    object id), the surface normal there, the materials met (sediment first),
+    and where the ray met the seabed (parameter and normal) whatever stood before it."""
+
+    t: np.ndarray
+    label: np.ndarray
+    ident: np.ndarray
+    normal: np.ndarray
+    materials: list[str]
+    seabed_t: np.ndarray
+    seabed_normal: np.ndarray
+
+
+def cast(scene: Scene, targets: list[Target], o: np.ndarray, d: np.ndarray) -> Hits:
+    """The first hit of every ray (origins ``o``, unit directions ``d``) on the scene."""
     t = _seabed_hits(scene.seabed, o, d)
+    seabed_t = t.copy()
     p = o + t[:, None] * d
     gx, gy = scene.seabed.gradient(p[:, 0], p[:, 1])
     normal = np.column_stack([-gx, -gy, np.ones_like(gx)])
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    seabed_normal = normal.copy()
     label = np.full(len(t), LABELS["seabed"], dtype=np.int8)
     ident = np.zeros(len(t), dtype=np.int32)
     materials = ["sediment"]
-    mat = np.zeros(len(t), dtype=np.int8)
-    for tg, idx, _, nn in _first_object_hits(targets, o, d, t):
+    for tg, idx, _, nn in first_object_hits(targets, o, d, t):
         normal[idx] = nn
         label[idx] = tg.kind
         ident[idx] = tg.ident
         if tg.material not in materials:
             materials.append(tg.material)
-        mat[idx] = materials.index(tg.material)
-    return t, label, ident, normal, materials
+    return Hits(t, label, ident, normal, materials, seabed_t, seabed_normal)

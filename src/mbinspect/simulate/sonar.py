@@ -3,6 +3,7 @@ sonars."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -11,6 +12,7 @@ import numpy as np
 from ..checks import fail, non_negative
 from ..errors import ParameterError
 from ..options import CHOICES, Options, option
+from .beam import Beam
 
 
 def _tail_dof(name: str, value: float) -> float:
@@ -23,7 +25,7 @@ def _tail_dof(name: str, value: float) -> float:
 
 
 @dataclass(frozen=True)
-class Sonar(Options):
+class Sonar(Beam):
     """Multibeam system and error model. All sigmas are 1-sigma; ``noise_scale`` scales them.
 
     Every field is an option (:mod:`mbinspect.options`): its unit, default and check are
@@ -34,7 +36,9 @@ class Sonar(Options):
     per-ping errors, 2.5 gives 3.9 and 3 gives 3.5. ``range_angle_growth``: the range noise
     grows off nadir by the factor 1 + growth·|sin θ| / sin 60° (the bottom detection worsens
     as the footprint lengthens). ``refraction_bias_deg`` and ``refraction_sigma_deg`` grow
-    as (angle / max angle)² toward the outer beams (the across-swath "smile").
+    as (angle / max angle)² toward the outer beams (the across-swath "smile"). The beam's
+    width and bottom detection are the fields of :class:`~mbinspect.simulate.beam.Beam`
+    (one thin ray per beam unless a width is given).
     """
 
     swath_deg: float = option(120.0, unit="deg", check="positive",
@@ -158,6 +162,10 @@ SONARS: dict[str, Sonar] = {
     "classic": Sonar(),
 }
 
+# the same systems with their beams as cones (a 400 kHz shallow system's 1° x 1°, a deep
+# system's 2° x 2°) and the makers' detection: amplitude near nadir, phase outside
+SONARS["shallow-beam"] = dataclasses.replace(SONARS["shallow"], beam_across_deg=1.0, beam_along_deg=1.0)
+SONARS["deep-beam"] = dataclasses.replace(SONARS["deep"], beam_across_deg=2.0, beam_along_deg=2.0)
 
 CHOICES["sonar"] = tuple(SONARS)
 

@@ -10,12 +10,8 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..io import PointCloud
-from .raycast import (
-    Target,
-    cast,
-    heavy_noise,
-    targets,
-)
+from .beam import cast_cones, frame, plane_range
+from .raycast import Hits, Target, cast, heavy_noise, rays_near, targets
 from .scene import LABELS, MATERIAL_BS, Scene, Seabed
 from .sonar import Sonar, Survey
 
@@ -152,13 +148,20 @@ def _sound(scene: Scene, sonar: Sonar, track: _Track, err: _Errors, beams: np.nd
     o = np.repeat(orig, len(beams), axis=0)
     d = dirs.reshape(-1, 3)
     near = _within(all_targets, orig, scene.seabed, sonar)
-    t, label, ident, normal, materials = cast(scene, near, o, d)
+    hits = cast(scene, near, o, d)
     pi = np.repeat(np.arange(sl.start, sl.stop), len(beams))
     li = track.line_id[pi] - 1
     bi = np.tile(np.arange(len(beams)), m)
     beam = beams[bi]
+    # derivative of the beam direction with respect to its angle (in the swath plane)
+    th = theta.reshape(-1)
+    dtheta = (-np.sin(th)[:, None] * down + np.cos(th)[:, None] * np.repeat(across, len(beams), axis=0))
+    if sonar.thin:
+        t, label, ident, normal, materials = hits.t, hits.label, hits.ident, hits.normal, hits.materials
+        cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
+    else:
+        t, label, ident, normal, materials, cos_inc = _through_beams(sonar, near, o, d, dtheta, beam, hits)
     # detection: grazing incidences return nothing
-    cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
     keep = rng.random(len(t)) < np.clip((cos_inc - 0.03) / 0.12, 0.0, 1.0)
     # measurement errors: range and pointing, growing with range and angle
     sig_r = (sonar.range_sigma + sonar.range_sigma_rel * t) * ns * err.growth[bi]
@@ -166,9 +169,6 @@ def _sound(scene: Scene, sonar: Sonar, track: _Track, err: _Errors, beams: np.nd
     bias = err.line_refr[li] * (beam / beams.max()) ** 2 * np.sign(beam)
     dang = heavy_noise(rng, len(t), sonar.tail_dof) * sig_a + err.droll[pi] + bias
     rng_meas = t + heavy_noise(rng, len(t), sonar.tail_dof) * sig_r + err.beam_bias[li, bi]
-    # derivative of the beam direction with respect to its angle (in the swath plane)
-    th = theta.reshape(-1)
-    dtheta = (-np.sin(th)[:, None] * down + np.cos(th)[:, None] * np.repeat(across, len(beams), axis=0))
     xyz = o + rng_meas[:, None] * d + (t * dang)[:, None] * dtheta + err.dpos[pi]
     xyz[:, 2] += err.line_dz[li]
     xyz, label, ident = _outliers(xyz, label, ident, o, d, t, sonar, rng)
@@ -176,6 +176,31 @@ def _sound(scene: Scene, sonar: Sonar, track: _Track, err: _Errors, beams: np.nd
     keep &= np.isfinite(t)
     return (xyz[keep], np.round(bs[keep] + 100.0, 1), np.round(np.degrees(beam[keep]), 3),
             track.line_id[pi][keep], pi[keep].astype(np.int32) + 1, label[keep], ident[keep])
+
+
+def _through_beams(sonar: Sonar, near: list[Target], o: np.ndarray, d: np.ndarray, across: np.ndarray,
+                   angle: np.ndarray, hits: Hits
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str], np.ndarray]:
+    """The beams' detected ranges with their width: in closed form where a cone sees only the
+    seabed, from sub-rays where it may meet an object (:mod:`mbinspect.simulate.beam`).
+    Returns range, label, id, normal, materials and cosine of incidence, as :func:`cast` does."""
+    modes = sonar.modes(angle)
+    a, b = frame(d, across)
+    t = plane_range(sonar, hits.seabed_t, d, a, b, hits.seabed_normal, modes)
+    label = np.full(len(t), LABELS["seabed"], np.int8)
+    ident = np.zeros(len(t), np.int32)
+    normal = hits.seabed_normal.copy()
+    cos_inc = np.clip(-np.einsum("ij,ij->i", d, normal), 0.0, 1.0)
+    materials = list(hits.materials)
+    rows = np.flatnonzero(rays_near(near, o, d, hits.seabed_t, sonar.spread()))
+    if len(rows):
+        point = o[rows] + hits.seabed_t[rows, None] * d[rows]
+        cones = cast_cones(sonar, near, o[rows], d[rows], across[rows], point, hits.seabed_normal[rows],
+                           modes[rows])
+        t[rows], label[rows], ident[rows] = cones.range, cones.label, cones.ident
+        normal[rows], cos_inc[rows] = cones.normal, cones.cos_inc
+        materials += sorted(cones.materials - set(materials))
+    return t, label, ident, normal, materials, cos_inc
 
 
 def _outliers(xyz: np.ndarray, label: np.ndarray, ident: np.ndarray, o: np.ndarray, d: np.ndarray,
