@@ -10,7 +10,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ParameterError
+from ..simulate.beam import Beam
 from .common import Reporter, subcommand
+from .flags import add_flags, given_options
 from .inputs import add_input, check_input, file_record, read_input
 
 
@@ -27,11 +29,12 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
     piles = read_pile_file(args.piles) if args.piles else []
     reefs = read_reef_file(args.reefs) if args.reefs else []
     out = Path(args.out or "inject-out")
-    given = [f for f in (args.piles, args.reefs) if f]
-    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, *given]) as tmp:
+    lists = [f for f in (args.piles, args.reefs) if f]
+    with output_dir(out, overwrite=args.overwrite, inputs=[args.input, *lists]) as tmp:
         cloud = read_input(args, rep)
         t = time.perf_counter()
-        inj = inject(cloud.xyz, cloud.fields, piles=piles, reefs=reefs)
+        given = given_options(args, Beam)
+        inj = inject(cloud.xyz, cloud.fields, piles=piles, reefs=reefs, beam=Beam(**given) if given else None)
         rep.debug(f"injected {len(piles)} piles and {len(reefs)} reefs in {time.perf_counter() - t:.2f} s")
         injected = PointCloud(inj.xyz, dict(cloud.fields), source=cloud.source, crs=cloud.crs,
                               meta=dict(cloud.meta))
@@ -81,4 +84,5 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--reefs", metavar="CSV", help="the reefs to inject (see below)")
     p.add_argument("--out", metavar="DIR", help="output folder (default inject-out)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
+    add_flags(p.add_argument_group("the survey's beam (thin rays unless a width is given)"), Beam)
     p.set_defaults(func=_cmd_inject)

@@ -29,8 +29,10 @@ from ..errors import InputError
 from ..noise import seabed_residuals
 from ..reef_designs import BUILTIN_DESIGNS
 from ..simulate import LABELS, Pile, Reef, Scene, Seabed, hit_objects, reef_boxes, reef_truth, truth_spacings
+from ..simulate.beam import Beam, cast_cones
+from ..simulate.raycast import rays_near, targets
 from .objects import InjectedPile, InjectedReef, Injection
-from .pings import estimate_pings, ping_origins
+from .pings import estimate_pings, ping_geometry
 
 __all__ = ["inject"]
 
@@ -83,7 +85,7 @@ def _scene_reefs(pts: np.ndarray, origin: np.ndarray, reefs: Sequence[InjectedRe
 
 
 def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[InjectedPile] = (),
-           reefs: Sequence[InjectedReef] = ()) -> Injection:
+           reefs: Sequence[InjectedReef] = (), beam: Beam | None = None) -> Injection:
     """Put ``piles`` and ``reefs`` into a survey's soundings (see the module's notes).
 
     Parameters
@@ -97,6 +99,9 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
         in the water column) are not bottom detections: they stay where they are.
     piles : sequence of InjectedPile
     reefs : sequence of InjectedReef
+    beam : Beam, optional
+        The survey's beam width and bottom detection: the objects are seen through cones
+        (:mod:`mbinspect.simulate.beam`); thin rays when not given.
 
     Returns
     -------
@@ -122,34 +127,17 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
                         "the shadows and the beams' incidence are approximate")
     origin = pts[:, :2].mean(axis=0)  # a local frame
     local = pts - [origin[0], origin[1], 0.0]
-    o, ok = ping_origins(local, ping, angle)
+    o, axes, ok = ping_geometry(local, ping, angle)
     for r in reefs:
         if r.kind not in BUILTIN_DESIGNS:
             raise InputError(f"reef {r.id}: kind {r.kind!r}; expected one of {', '.join(BUILTIN_DESIGNS)}")
     _check_apart(piles, reefs)
     scene_piles, truth_piles = _scene_piles(pts, origin, piles)
     scene_reefs, truth_reefs = _scene_reefs(pts, origin, reefs)
-    labels = np.zeros(len(pts), np.int8)
-    ident = np.zeros(len(pts), np.int32)
-    out = pts.copy()
     if "extra_detection" in fields:
         ok = ok & ~np.asarray(fields["extra_detection"], bool)
-    rows = np.flatnonzero(ok)
-    if len(rows):
-        ray = local[rows] - o[rows]
-        length = np.linalg.norm(ray, axis=1)
-        d = ray / length[:, None]
-        scene = Scene(Seabed(z0=float(np.median(pts[:, 2]))), piles=tuple(scene_piles),
-                      reefs=tuple(scene_reefs))
-        t, lab, idn = hit_objects(scene, o[rows], d, length)
-        hit = lab != LABELS["seabed"]
-        if hit.any():
-            resid = seabed_residuals(pts, ping=ping)[rows[hit]]
-            dz = np.minimum(d[hit, 2], -0.1)  # a vertical offset as a range offset along the beam
-            moved = o[rows[hit]] + (t[hit] + resid / dz)[:, None] * d[hit]
-            out[rows[hit]] = moved + [origin[0], origin[1], 0.0]
-            labels[rows[hit]] = lab[hit]
-            ident[rows[hit]] = idn[hit]
+    scene = Scene(Seabed(z0=float(np.median(pts[:, 2]))), piles=tuple(scene_piles), reefs=tuple(scene_reefs))
+    out, labels, ident = _moved(pts, local, origin, ping, angle, o, axes, ok, scene, beam)
     counts = {"soundings": int(len(pts)), "on_piles": int((labels == LABELS["pile"]).sum()),
               "on_reefs": int((labels == LABELS["reef"]).sum()),
               "per_pile": {str(p["id"]): int(((labels == LABELS["pile"]) & (ident == p["id"])).sum())
@@ -161,7 +149,63 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
              "counts": counts, "warnings": warnings,
              "design": [{"group": p["group"], "id": p["id"], "x": p["x"], "y": p["y"]} for p in truth_piles],
              "reefs": truth_reefs}
+    if beam is not None:
+        truth["beam"] = beam.to_dict()
     return Injection(out, labels, ident, truth)
+
+
+def _moved(pts: np.ndarray, local: np.ndarray, origin: np.ndarray, ping: np.ndarray, angle: np.ndarray,
+           o: np.ndarray, axes: np.ndarray, ok: np.ndarray, scene: Scene, beam: Beam | None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The soundings moved by the objects, with what each now shows (label, id).
+
+    A thin beam: a sounding whose ray meets an object first moves to the hit, then along its
+    beam by its own seabed residual. A beam with a width: every beam whose cone may meet an
+    object is cast as sub-rays over the plane of its smoothed seabed (:func:`cast_cones`);
+    where an object's echo is the strongest, the sounding moves to the detected range plus
+    its own residual; where the seabed's still is, by what the objects change in the range
+    detected, so the real footprint on the seabed stays as it was.
+    """
+    labels = np.zeros(len(pts), np.int8)
+    ident = np.zeros(len(pts), np.int32)
+    out = pts.copy()
+    rows = np.flatnonzero(ok)
+    if not len(rows):
+        return out, labels, ident
+    ray = local[rows] - o[rows]
+    length = np.linalg.norm(ray, axis=1)
+    d = ray / length[:, None]
+    if beam is None or beam.thin:
+        t, lab, idn = hit_objects(scene, o[rows], d, length)
+        hit = np.flatnonzero(lab != LABELS["seabed"])
+        if len(hit):
+            resid = seabed_residuals(pts, ping=ping)[rows[hit]]
+            dz = np.minimum(d[hit, 2], -0.1)  # a vertical offset as a range offset along the beam
+            new_range = t[hit] + resid / dz
+    else:
+        objects = targets(scene)
+        hit = np.flatnonzero(rays_near(objects, o[rows], d, length, beam.spread()))
+        if len(hit):
+            resid = seabed_residuals(pts, ping=ping)[rows[hit]]
+            offset = resid / np.minimum(d[hit, 2], -0.1)
+            up = np.tile([0.0, 0.0, 1.0], (len(hit), 1))
+            plane = o[rows[hit]] + (length[hit] - offset)[:, None] * d[hit]
+            cones = cast_cones(beam, objects, o[rows[hit]], d[hit], axes[rows[hit]], plane, up,
+                               beam.modes(np.radians(angle[rows[hit]])))
+            moved = np.isfinite(cones.range) & np.isfinite(cones.plane_range)
+            hit, cones_range, plane_range = hit[moved], cones.range[moved], cones.plane_range[moved]
+            lab, idn = np.zeros(len(rows), np.int8), np.zeros(len(rows), np.int32)
+            lab[hit], idn[hit] = cones.label[moved], cones.ident[moved]
+            # an object's echo carries the sounding's own residual; a seabed echo that the
+            # objects only nudge keeps the real detection and moves by what they change
+            new_range = np.where(lab[hit] != LABELS["seabed"], cones_range + offset[moved],
+                                 length[hit] + (cones_range - plane_range))
+    if len(hit):
+        moved_xyz = o[rows[hit]] + new_range[:, None] * d[hit]
+        out[rows[hit]] = moved_xyz + [origin[0], origin[1], 0.0]
+        labels[rows[hit]] = lab[hit]
+        ident[rows[hit]] = idn[hit]
+    return out, labels, ident
 
 
 def _check_apart(piles: Sequence[InjectedPile], reefs: Sequence[InjectedReef]) -> None:

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["ping_origins", "estimate_pings"]
+__all__ = ["ping_origins", "ping_geometry", "estimate_pings"]
 
 
 def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *, min_beams: int = 5
@@ -40,8 +40,23 @@ def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *
     >>> (np.round(o[0], 6) + 0.0).tolist(), bool(ok.all())
     ([100.0, 50.0, 0.0], True)
     """
+    origins, _, ok = ping_geometry(points, ping, beam_angle, min_beams=min_beams)
+    return origins, ok
+
+
+def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *, min_beams: int = 5
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each sounding's transducer position and its ping's swath axis (a horizontal unit vector
+    to starboard), as :func:`ping_origins` estimates them; both NaN where it cannot.
+
+    Returns
+    -------
+    origins, axes : ndarray, shape (N, 3)
+    ok : ndarray of bool, shape (N,)
+    """
     pts = np.asarray(points, float)
     origins = np.full_like(pts, np.nan)
+    axes = np.full_like(pts, np.nan)
     tan = np.tan(np.radians(np.clip(beam_angle, -85, 85)))
     order = np.argsort(ping, kind="stable")
     bounds = np.flatnonzero(np.diff(ping[order])) + 1
@@ -56,7 +71,8 @@ def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *
             continue
         near = rows[np.argsort(np.abs(tan[rows]))[:3]]
         origins[rows] = [x0, y0, float(np.median(pts[near, 2])) + h]
-    return origins, np.isfinite(origins[:, 0])
+        axes[rows] = [sx / h, sy / h, 0.0]
+    return origins, axes, np.isfinite(origins[:, 0])
 
 
 def estimate_pings(points: np.ndarray, *, jump: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
