@@ -86,11 +86,15 @@ def test_inject_refuses_what_it_cannot_do():
         inject(cloud.xyz, cloud.fields, piles=[InjectedPile(1, cx + 500, cy, 0.5, height=1)])
 
 
-def test_inject_command(tmp_path, capsys):
-    cloud = read(SURVEY)
+def _write_piles(path, cloud):
     rows = ["id,x,y,radius,height"] + [f"{p.id},{p.x:.3f},{p.y:.3f},{p.radius},{p.height}"
                                        for p in _piles(cloud)]
-    (tmp_path / "piles.csv").write_text("\n".join(rows) + "\n")
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_inject_command(tmp_path, capsys):
+    cloud = read(SURVEY)
+    _write_piles(tmp_path / "piles.csv", cloud)
     out = tmp_path / "inj"
     assert main(["inject", str(SURVEY), "--piles", str(tmp_path / "piles.csv"), "--out", str(out)]) == 0
     truth = json.loads((out / "truth.json").read_text())
@@ -255,9 +259,7 @@ def test_piles_injected_through_a_beam_into_every_sonar_format(name):
 
 def test_inject_command_with_a_beam(tmp_path, capsys):
     cloud = read(SURVEY)
-    rows = ["id,x,y,radius,height"] + [f"{p.id},{p.x:.3f},{p.y:.3f},{p.radius},{p.height}"
-                                       for p in _piles(cloud)]
-    (tmp_path / "piles.csv").write_text("\n".join(rows) + "\n")
+    _write_piles(tmp_path / "piles.csv", cloud)
     out = tmp_path / "inj"
     args = ["inject", str(SURVEY), "--piles", str(tmp_path / "piles.csv"), "--out", str(out)]
     assert main([*args, "--beam-across-deg", "1.5", "--detection", "phase"]) == 0
