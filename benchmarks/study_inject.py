@@ -1,7 +1,8 @@
 """Piles and reefs injected into the real files of ``../shared/real``: what their lines can measure.
 
 Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs] [--prior-offset M]
-[--only NAME]``.
+[--only NAME] [--beam DEG [--detection auto]]``. ``--beam`` injects through cones of that width
+(issue 28), the objects then carry the beam's smear as well as the real noise.
 For each real file with at least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a
 jacket of four piles (radius 0.5 m, sides 6 m or half the seabed's width, tops 2 m above the seabed) is
 injected at seeded placements (shift within 1.5 m of the centre, any turn) with
@@ -38,6 +39,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import real_clouds, table  # noqa: E402
+from mbinspect.beam import Beam  # noqa: E402
 from mbinspect.errors import MBInspectError  # noqa: E402
 from mbinspect.inject import InjectedPile, InjectedReef, inject  # noqa: E402
 from mbinspect.io import PointCloud  # noqa: E402
@@ -109,13 +111,14 @@ def _reef_square(cx: float, cy: float, side: float, rng: np.random.Generator) ->
             for i, ((u, v), (kind, scale)) in enumerate(zip(corners, kinds, strict=True))]
 
 
-def _reef_row(name: str, cloud: PointCloud, side: float, placements: int) -> list[str]:
+def _reef_row(name: str, cloud: PointCloud, side: float, placements: int, beam: Beam | None) -> list[str]:
     """Inject the four reefs at each placement and score ``extract_reefs`` (with designs)."""
     cx, cy = np.median(cloud.xyz[:, :2], axis=0)
     hits, tp, fp, fn, others, dh, unplaced, stopped = [], 0, 0, 0, 0, [], 0, 0
     for k in range(placements):
         try:
-            inj = inject(cloud.xyz, cloud.fields, reefs=_reef_square(cx, cy, side, np.random.default_rng(k)))
+            inj = inject(cloud.xyz, cloud.fields, reefs=_reef_square(cx, cy, side, np.random.default_rng(k)),
+                         beam=beam)
         except MBInspectError:
             unplaced += 1
             continue
@@ -186,7 +189,12 @@ def main() -> None:
     ap.add_argument("--prior-offset", type=float, default=0.0,
                     help="the radius prior given to locate_piles minus the injected radius (m)")
     ap.add_argument("--only", default="", help="only the real files whose name holds this")
+    ap.add_argument("--beam", type=float, default=0.0,
+                    help="inject through beams this wide (deg, across and along; 0: thin rays)")
+    ap.add_argument("--detection", default="auto", help="the beam's bottom detection (with --beam)")
     args = ap.parse_args()
+    beam = Beam(beam_across_deg=args.beam, detection=args.detection) if args.beam > 0 else None
+    print(f"beam: {args.beam:g} deg, {args.detection} detection" if beam else "beam: thin rays")
     files = _files(args.only)
     if "reefs" in args.objects:
         reef_rows = []
@@ -194,7 +202,8 @@ def main() -> None:
             if layout != "square":
                 continue
             lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
-            reef_rows.append(_reef_row(name, cloud, min(6.0, float((hi - lo).min()) / 2), args.placements))
+            reef_rows.append(_reef_row(name, cloud, min(6.0, float((hi - lo).min()) / 2), args.placements,
+                                       beam))
         print(table(["file", "depth m", "side m", "soundings per reef (median)", "reefs found", "false reefs",
                      "others", "height err median cm", "height err max cm", "runs stopped", "not placed"],
                     reef_rows))
@@ -214,7 +223,7 @@ def main() -> None:
             else:
                 piles = _jacket(cx, cy, side, np.random.default_rng(k))
             try:
-                inj = inject(cloud.xyz, cloud.fields, piles=piles)
+                inj = inject(cloud.xyz, cloud.fields, piles=piles, beam=beam)
             except MBInspectError:  # a pile over a hole in the coverage
                 unplaced += 1
                 continue

@@ -3,7 +3,8 @@
 Run: ``python benchmarks/study_piles.py [--seeds 20] [--configs default,tilt5,...] [--ablation]``.
 ``--ablation`` adds our method without the side weights and without the joint radius.
 Prints, per configuration and method, the spacing error RMS and max, the centre error max
-(plan), the tilt error max, the share of spacings within their 2 and 3 sigma, and the number of
+(plan), the median radius error (each pile's own fitted radius where it has one), the tilt
+error max, the share of spacings within their 2 and 3 sigma, and the number of
 flagged piles. Each seed simulates the full ``jacket`` preset (about 2.2 M soundings).
 """
 
@@ -38,6 +39,15 @@ CONFIGS: dict[str, tuple[dict, dict]] = {
     # three jackets of 0.6 m piles (vertical, battered 1:6 and 1:4), no count given: the
     # jackets are found from the spacing and the spacings taken within each
     "wharf": ({"preset": "wharf"}, {"radius": 0.6, "count": None}),
+    # issue 28: the beam as a cone (sub-rays, the makers' detection: amplitude near nadir,
+    # phase outside), 0.5, 1 and 2 degrees; a leading-edge pick; and 1 degree without noise
+    # (the beam's bias alone)
+    "beam-0.5": ({"beam_across_deg": 0.5}, {}),
+    "beam-1": ({"beam_across_deg": 1.0}, {}),
+    "beam-2": ({"beam_across_deg": 2.0}, {}),
+    "beam-1-leading-edge": ({"beam_across_deg": 1.0, "detection": "leading-edge"}, {}),
+    "beam-1-noise-off": ({"beam_across_deg": 1.0, "noise_scale": 0.0}, {}),
+    "beam-off-noise-off": ({"noise_scale": 0.0}, {}),
 }
 
 
@@ -81,11 +91,13 @@ def run_one(args: tuple[str, int]) -> list[dict]:
         z_in = [abs(s.distance - tsp[pair[s.a, s.b]]) / s.sigma for s in res.spacings
                 if pair[s.a, s.b] in tsp and math.isfinite(s.sigma) and s.sigma > 0]
         c_err = [math.hypot(p.x - truth[near[i]]["x"], p.y - truth[near[i]]["y"]) for i, p in piles.items()]
+        r_err = [(p.radius_fitted if p.radius_fitted is not None else p.radius) - truth[near[i]]["radius"]
+                 for i, p in piles.items()]
         t_err = [abs(p.tilt_deg - truth[near[i]]["tilt_deg"]) for i, p in piles.items()
                  if p.tilt_deg is not None]
         groups_right = all(p.group == truth[near[i]].get("group", 1) for i, p in piles.items())
         rows.append({"config": name, "seed": seed, "method": method, "sp_err": sp_err,
-                     "c_err": c_err, "t_err": t_err, "z_in": z_in, "n_found": len(piles),
+                     "c_err": c_err, "r_err": r_err, "t_err": t_err, "z_in": z_in, "n_found": len(piles),
                      "flagged": sum(bool(p.flags) for p in piles.values()), "groups_right": groups_right,
                      "n_true": len(truth),
                      "methods_used": sorted({p.method for p in piles.values()})})
@@ -109,17 +121,18 @@ def main() -> None:
             rs = [r for r in results if r["config"] == c and r["method"] == m]
             sp = np.concatenate([r["sp_err"] for r in rs]) * 100
             ce = np.concatenate([r["c_err"] for r in rs]) * 100
+            re = np.concatenate([r["r_err"] for r in rs]) * 1000
             te = np.concatenate([r["t_err"] for r in rs]) if any(r["t_err"] for r in rs) else np.array([])
             zi = np.concatenate([r["z_in"] for r in rs]) if rs else np.array([])
             out.append([c, m, len(rs), f"{np.sqrt(np.mean(sp**2)):.2f}", f"{np.abs(sp).max():.2f}",
-                        f"{ce.max():.2f}", f"{te.max():.3f}" if len(te) else "-",
+                        f"{ce.max():.2f}", f"{np.median(re):+.0f}", f"{te.max():.3f}" if len(te) else "-",
                         f"{100 * np.mean(zi <= 2):.0f} %" if len(zi) else "-",
                         f"{100 * np.mean(zi <= 3):.0f} %" if len(zi) else "-",
                         sum(r["flagged"] for r in rs), sum(r["n_true"] - r["n_found"] for r in rs),
                         f"{sum(r['groups_right'] for r in rs)}/{len(rs)}"])
     print(table(["config", "method", "seeds", "spacing RMS cm", "spacing max cm", "centre max cm",
-                 "tilt max deg", "within 2 sigma", "within 3 sigma", "piles flagged", "piles missed",
-                 "jackets right"], out))
+                 "radius err median mm", "tilt max deg", "within 2 sigma", "within 3 sigma", "piles flagged",
+                 "piles missed", "jackets right"], out))
 
 
 if __name__ == "__main__":

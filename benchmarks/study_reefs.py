@@ -43,6 +43,11 @@ CONFIGS: dict[str, dict] = {
     "buried": {"burial_max": 0.6},
     "sand-waves-2m": {"sand_wave_amplitude": 1.0, "sand_wave_length": 40.0},
     "strips+-5cm": {"line_offset_sigma": 0.05, "refraction_sigma_deg": 0.05},
+    # issue 28: the beam as a cone, the makers' detection (amplitude near nadir, phase outside)
+    "beam-0.5": {"beam_across_deg": 0.5},
+    "beam-1": {"beam_across_deg": 1.0},
+    "beam-2": {"beam_across_deg": 2.0},
+    "beam-1-leading-edge": {"beam_across_deg": 1.0, "detection": "leading-edge"},
 }
 METHODS = (("local", None), ("local", "design"), ("paper", None))
 NAMES = {("local", None): "ours", ("local", "design"): "ours + design", ("paper", None): "paper"}
@@ -64,10 +69,12 @@ def run_one(args: tuple[str, int]) -> list[dict]:
         found = {truth[j]["id"]: i for i, j, _ in ev.matches}
         pairs = sim.truth["close_pairs"]
         both = sum(p["a"] in found and p["b"] in found for p in pairs)
-        h = [abs(res.reefs[i].height - truth[j]["height"]) for i, j, _ in ev.matches]
+        hs = [res.reefs[i].height - truth[j]["height"] for i, j, _ in ev.matches]
+        h = [abs(x) for x in hs]
         a = [res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches]
         rows.append({"config": name, "method": NAMES[method, use], "tp": ev.tp, "fp": ev.fp, "fn": ev.fn,
-                     "pairs": len(pairs), "both": both, "h": h, "c": list(ev.position_errors()), "a": a})
+                     "pairs": len(pairs), "both": both, "h": h, "hs": hs, "c": list(ev.position_errors()),
+                     "a": a})
     return rows
 
 
@@ -79,16 +86,19 @@ def main() -> None:
             rs = [r for r in results if r["config"] == c and r["method"] == m]
             tp, fp, fn = (sum(r[k] for r in rs) for k in ("tp", "fp", "fn"))
             h = np.concatenate([r["h"] for r in rs])
+            hs = np.concatenate([r["hs"] for r in rs])
             ce = np.concatenate([r["c"] for r in rs])
             a = np.concatenate([r["a"] for r in rs])
             out.append([c, m, len(rs), tp, fp, fn,
                         f"{100 * tp / max(tp + fp, 1):.2f}", f"{100 * tp / max(tp + fn, 1):.2f}",
                         f"{sum(r['both'] for r in rs)}/{sum(r['pairs'] for r in rs)}",
-                        f"{h.max():.3f}", f"{ce.max():.2f}", f"{int(np.sum(ce <= 0.3))}/{len(ce)}",
+                        f"{1000 * hs.mean():+.0f}", f"{h.max():.3f}", f"{ce.max():.2f}",
+                        f"{int(np.sum(ce <= 0.3))}/{len(ce)}",
                         f"{100 * a.mean():+.1f} %", f"{int(np.sum(np.abs(a) <= 0.1))}/{len(a)}",
                         f"{100 * np.abs(a).max():.0f} %"])
     print(table(["config", "method", "seeds", "TP", "FP", "FN", "correct %", "complete %",
-                 "close pairs both found", "height err max m", "centre err max m", "centre within 0.3 m",
+                 "close pairs both found", "height err mean mm", "height err max m", "centre err max m",
+                 "centre within 0.3 m",
                  "area err mean",
                  "area within 10 %", "area err max"], out))
 

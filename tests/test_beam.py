@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from mbinspect.beam import AMPLITUDE, LEADING_EDGE, PHASE, Beam, frame, plane_range
 from mbinspect.errors import ParameterError
 from mbinspect.simulate import LABELS, simulate
-from mbinspect.simulate.beam import AMPLITUDE, LEADING_EDGE, PHASE, Beam, cast_cones, frame, plane_range
+from mbinspect.simulate.beam import cast_cones
 from mbinspect.simulate.raycast import targets
 from mbinspect.simulate.scene import Pile, Scene, Seabed
 

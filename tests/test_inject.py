@@ -207,8 +207,8 @@ def _wall_offsets(thin, wide, pile):
 
 
 def test_piles_injected_through_a_beam_bloom_and_leave_the_far_seabed_alone():
+    from mbinspect.beam import Beam
     from mbinspect.simulate import simulate
-    from mbinspect.simulate.beam import Beam
 
     sim = simulate("jacket", seed=3, ping_spacing=0.6, noise_scale=0.0)
     piles = [InjectedPile(1, *sim.scene.origin, 0.75, height=3.0)]  # the jacket's empty centre
@@ -241,7 +241,7 @@ def test_piles_injected_through_a_beam_into_every_sonar_format(name):
     soundings whose cones cannot reach it stay as they were. (The one GSF kept here is 1,446
     soundings over 5 km at 1,500 m: no pile fits in it; benchmarks/study_inject.py injects
     into the shallow GSF files.)"""
-    from mbinspect.simulate.beam import Beam
+    from mbinspect.beam import Beam
 
     cloud = read(DATA / name)
     middle = np.median(cloud.xyz[:, :2], axis=0)

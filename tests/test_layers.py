@@ -17,7 +17,7 @@ LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (0, ("errors", "version", "checks", "outputs", "options", "grid", "strays", "geometry", "cloud",
          "interrupt", "timing", "neighbours", "cellsort")),
     (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
-         "pipeline")),
+         "pipeline", "beam", "pings")),
     (2, ("seabed", "filters", "segment")),
     (3, ("piles", "reefs", "simulate", "report")),
     (4, ("pipelines", "inject", "results")),

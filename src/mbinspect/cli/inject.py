@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..beam import Beam
 from ..errors import ParameterError
-from ..simulate.beam import Beam
 from .common import Reporter, subcommand
 from .flags import add_flags, given_options
 from .inputs import add_input, check_input, file_record, read_input

@@ -25,14 +25,15 @@ from typing import Any
 
 import numpy as np
 
+from ..beam import Beam
 from ..errors import InputError
 from ..noise import seabed_residuals
+from ..pings import estimate_pings, ping_geometry
 from ..reef_designs import BUILTIN_DESIGNS
 from ..simulate import LABELS, Pile, Reef, Scene, Seabed, hit_objects, reef_boxes, reef_truth, truth_spacings
-from ..simulate.beam import Beam, cast_cones
+from ..simulate.beam import cast_cones
 from ..simulate.raycast import rays_near, targets
 from .objects import InjectedPile, InjectedReef, Injection
-from .pings import estimate_pings, ping_geometry
 
 __all__ = ["inject"]
 

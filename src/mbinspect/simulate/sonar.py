@@ -9,10 +9,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..beam import Beam
 from ..checks import fail, non_negative
 from ..errors import ParameterError
 from ..options import CHOICES, Options, option
-from .beam import Beam
 
 
 def _tail_dof(name: str, value: float) -> float:

@@ -8,9 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..beam import frame, plane_range
 from ..errors import ParameterError
 from ..io import PointCloud
-from .beam import cast_cones, frame, plane_range
+from .beam import cast_cones
 from .raycast import Hits, Target, cast, heavy_noise, rays_near, targets
 from .scene import LABELS, MATERIAL_BS, Scene, Seabed
 from .sonar import Sonar, Survey

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ..errors import InputError
+from .errors import InputError
 
 __all__ = ["ping_origins", "ping_geometry", "estimate_pings"]
 
