@@ -1,7 +1,9 @@
 """Pile accuracy study against simulator truth: both methods, many seeds, hard variants.
 
 Run: ``python benchmarks/study_piles.py [--seeds 20] [--configs default,tilt5,...] [--ablation]``.
-``--ablation`` adds our method without the side weights and without the joint radius.
+``--ablation`` adds our method without the side weights and without the joint radius. A
+configuration whose survey has beams of a width (``beam-*``, issue 28) adds our method told that
+width and the detection (``beam_width_deg``).
 Prints, per configuration and method, the spacing error RMS and max, the centre error max
 (plan), the median radius error (each pile's own fitted radius where it has one), the tilt
 error max, the share of spacings within their 2 and 3 sigma, and the number of
@@ -61,6 +63,9 @@ VARIANTS: dict[str, dict] = {
 
 ABLATION_ENV = "MBINSPECT_STUDY_ABLATION"
 
+#: the row of ours told the simulated survey's beam width and detection (``beam_width_deg``)
+BEAM_VARIANT = "intersection, beam modelled"
+
 #: ``--ablation``: our method without one of its parts
 ABLATION: dict[str, dict] = {
     "intersection, unweighted": {"method": "intersection", "weights": "none"},
@@ -75,7 +80,10 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     truth = {p["id"]: p for p in sim.truth["piles"]}
     tsp = {(s["a"], s["b"]): s["distance"] for s in sim.truth["spacings"]}
     rows = []
-    variants = {**VARIANTS, **ABLATION} if os.environ.get(ABLATION_ENV) else VARIANTS
+    variants = {**VARIANTS, **ABLATION} if os.environ.get(ABLATION_ENV) else dict(VARIANTS)
+    if sim_kw.get("beam_across_deg"):  # ours told the survey's beam (issue 28)
+        variants[BEAM_VARIANT] = {"method": "intersection", "beam_width_deg": sim_kw["beam_across_deg"],
+                                  "detection": sim_kw.get("detection", "auto")}
     for method, extra in variants.items():
         kw = {"count": 4, "radius": 0.75, "seed": seed, **extra, **loc_kw}
         if kw["count"] is None:
@@ -117,8 +125,10 @@ def main() -> None:
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)
     out = []
     for c in chosen:
-        for m in VARIANTS:
+        for m in [*VARIANTS, BEAM_VARIANT]:
             rs = [r for r in results if r["config"] == c and r["method"] == m]
+            if not rs:
+                continue
             sp = np.concatenate([r["sp_err"] for r in rs]) * 100
             ce = np.concatenate([r["c_err"] for r in rs]) * 100
             re = np.concatenate([r["r_err"] for r in rs]) * 1000

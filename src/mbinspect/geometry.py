@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "ray_cylinder",
     "bearing_to_vector",
     "vector_to_bearing",
     "convex_hull",
@@ -330,3 +331,56 @@ def crop_mask(xyz: np.ndarray, crop: Any) -> np.ndarray:
         xmin, ymin, xmax, ymax = value
         return (xyz[:, 0] >= xmin) & (xyz[:, 0] <= xmax) & (xyz[:, 1] >= ymin) & (xyz[:, 1] <= ymax)
     return points_in_polygon(xyz[:, :2], np.asarray(value, np.float64))
+
+
+def ray_cylinder(top: np.ndarray, axis: np.ndarray, radius: float, length: float, o: np.ndarray,
+                 d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where rays first meet a closed-top cylinder (a pile): its side or its top disc.
+
+    Parameters
+    ----------
+    top : ndarray, shape (3,)
+        The top disc's centre.
+    axis : ndarray, shape (3,)
+        Unit axis, pointing up out of the top.
+    radius, length : float
+        The cylinder's radius and its length below the top (m).
+    o, d : ndarray, shape (N, 3)
+        Ray origins and unit directions.
+
+    Returns
+    -------
+    t : ndarray, shape (N,)
+        Ray parameter of the first hit (inf: a miss).
+    normal : ndarray, shape (N, 3)
+        Outward surface normal there.
+
+    Examples
+    --------
+    >>> o = np.array([[0.0, 0.0, 10.0], [-5.0, 0.0, -1.0]])
+    >>> d = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+    >>> t, n = ray_cylinder(np.zeros(3), np.array([0.0, 0.0, 1.0]), 1.0, 5.0, o, d)
+    >>> t.tolist(), n[1].tolist()
+    ([10.0, 4.0], [-1.0, 0.0, 0.0])
+    """
+    a = np.asarray(axis, float)
+    w = o - np.asarray(top, float)
+    wa, da = w @ a, d @ a
+    wp = w - wa[:, None] * a
+    dp = d - da[:, None] * a
+    qa = np.einsum("ij,ij->i", dp, dp)
+    qb = 2 * np.einsum("ij,ij->i", wp, dp)
+    qc = np.einsum("ij,ij->i", wp, wp) - radius**2
+    disc = qb * qb - 4 * qa * qc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ts = (-qb - np.sqrt(disc)) / (2 * qa)
+        tc = -wa / da
+    s = wa + ts * da
+    side_ok = (disc >= 0) & (ts > 0) & (s <= 0) & (s >= -length)
+    rc = wp + tc[:, None] * dp
+    cap_ok = (da < 0) & (tc > 0) & (np.einsum("ij,ij->i", rc, rc) <= radius**2)
+    t = np.where(side_ok, ts, np.inf)
+    t = np.where(cap_ok & (tc < t), tc, t)
+    use_cap = cap_ok & (tc <= t)
+    radial = (wp + ts[:, None] * dp) / radius
+    return t, np.where(use_cap[:, None], a[None, :], radial)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ..beam import Beam
 from ..checks import fail
 from ..options import CHOICES, Options, crop_value, option, parse_crop
 
@@ -88,16 +89,34 @@ class PileOptions(Options):
                                      "narrower arc", check=_coverage_deg, flag="min-coverage")
     max_sigma: float = option(0.005, unit="m", help="flag a pile whose plan 1-sigma exceeds this",
                               check="positive")
+    beam_width_deg: float = option(0.0, unit="deg", check="non_negative",
+                                   help="the sonar's beam width (-3 dB, across and along track): each pile "
+                                   "measured again from soundings corrected for what the beam does to them "
+                                   "(0: thin beams, no correction)")
+    detection: str = option("auto", choices="detection",
+                            help="the sonar's bottom detection, for the beam correction: amplitude, phase, "
+                            "leading-edge, or auto (amplitude near nadir, phase outside)")
+    phase_from_deg: float = option(15.0, unit="deg", check="non_negative",
+                                   help="beam angle from which auto detection uses the phase")
     seed: int = option(0, help="random seed", check="seed")
 
     def check_together(self) -> None:
         if self.step > self.window:
             raise fail("step", self.step, f"at most the window ({self.window} m)")
+        if self.beam_width_deg > 10:
+            raise fail("beam_width_deg", self.beam_width_deg, "a beam width of 0 (thin beams) to 10 deg")
 
     @property
     def opening_window(self) -> float:
         """The seabed opening window used (m): given, or max(5, 4 r + 1)."""
         return self.seabed_window if self.seabed_window is not None else max(5.0, 4 * self.radius + 1)
+
+    def beam(self) -> Beam | None:
+        """The survey's beam for the correction, or None when the beams are taken as thin."""
+        if self.beam_width_deg <= 0:
+            return None
+        return Beam(beam_across_deg=self.beam_width_deg, detection=self.detection,
+                    phase_from_deg=self.phase_from_deg)
 
     def value_for_json(self, name: str) -> Any:
         return self.opening_window if name == "seabed_window" else getattr(self, name)

@@ -12,10 +12,12 @@ from ..cloud import sources
 from ..errors import DataError
 from ..grid import sounding_spacing
 from ..io import PointCloud, pipeline_input
+from ..pings import ping_geometry
 from ..seabed import GROUND_BAND
 from ..version import __version__
 from .accept import rejected_record, rejection_reasons
 from .assess import assess_pile, other_method_piles
+from .beam import beam_contrast, pile_models, through_beam
 from .design import Design
 from .elevate import elevated_points, pile_base, pile_thresholds
 from .frame import fit_frames
@@ -124,6 +126,29 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
         Soundings too sparse for the radius, no point above the seabed, no candidate.
     """
     cloud, pts, notes = pipeline_input(data, crop=opts.crop)
+    m = _measure_points(cloud, pts, notes, opts, progress)
+    beam = opts.beam()
+    if beam is None or not m.piles:
+        return m
+    ping, angle = cloud.fields.get("ping"), cloud.fields.get("beam_angle")
+    if ping is None or angle is None:
+        return replace(m, warnings=(*m.warnings, "beam_width_deg: the soundings carry no ping and beam angle "
+                                    "to place their beams; the beam's bias was not corrected"))
+    origins, axes, _ = ping_geometry(pts, ping, angle)
+    contrast_db = beam_contrast(cloud.fields.get("intensity") if opts.use_intensity else None, pts, m.piles)
+    for _ in range(2):  # each time from the soundings as read, the bias from the newer model
+        seen = through_beam(pts, origins, axes, angle, pile_models(m.piles, m.cylinders, pts), beam,
+                            contrast_db=contrast_db)
+        m = _measure_points(cloud.subset(seen.keep), seen.points[seen.keep], notes, opts, progress)
+    note = (f"seen through {opts.beam_width_deg:g}° beams ({opts.detection} detection, the steel's echo "
+            f"{contrast_db:.0f} dB over the seabed's): {seen.moved:,} soundings moved back along their "
+            f"beams, {seen.left_out:,} left out as the steel's echo heard beside the piles")
+    return replace(m, warnings=(*m.warnings, note))
+
+
+def _measure_points(cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: PileOptions,
+                    progress: Callable[[float], None] | None) -> MeasuredPiles:
+    """:func:`measure_piles` on the points given (``cloud`` holds their fields)."""
     spacing = sounding_spacing(pts, seed=opts.seed)
     if spacing > opts.radius:
         # no pile of this radius can hold enough soundings; the seabed grids would also

@@ -10,9 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry import (
-    bearing_to_vector,
-)
+from ..geometry import bearing_to_vector, ray_cylinder
 from .scene import LABELS, Boulder, Box, Pile, Scene, Seabed
 
 
@@ -43,30 +41,8 @@ def _seabed_hits(seabed: Seabed, o: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 def _hit_cylinder(pile: Pile, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     a = pile.axis
-    c = np.array([pile.x, pile.y, pile.top_z])
     length = (pile.top_z - pile.bottom_z) / max(a[2], 1e-6)
-    w = o - c
-    wa, da = w @ a, d @ a
-    wp = w - wa[:, None] * a
-    dp = d - da[:, None] * a
-    A = np.einsum("ij,ij->i", dp, dp)
-    B = 2 * np.einsum("ij,ij->i", wp, dp)
-    C = np.einsum("ij,ij->i", wp, wp) - pile.radius**2
-    disc = B * B - 4 * A * C
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ts = (-B - np.sqrt(disc)) / (2 * A)
-    s = wa + ts * da
-    side_ok = (disc >= 0) & (ts > 0) & (s <= 0) & (s >= -length)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        tc = -wa / da
-    rc = wp + tc[:, None] * dp
-    cap_ok = (da < 0) & (tc > 0) & (np.einsum("ij,ij->i", rc, rc) <= pile.radius**2)
-    t = np.where(side_ok, ts, np.inf)
-    t = np.where(cap_ok & (tc < t), tc, t)
-    use_cap = cap_ok & (tc <= t)
-    radial = (wp + ts[:, None] * dp) / pile.radius
-    normal = np.where(use_cap[:, None], a[None, :], radial)
-    return t, normal
+    return ray_cylinder(np.array([pile.x, pile.y, pile.top_z]), a, pile.radius, length, o, d)
 
 
 def _hit_box(box: Box, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
