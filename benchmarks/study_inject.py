@@ -1,8 +1,9 @@
 """Piles and reefs injected into the real files of ``../shared/real``: what their lines can measure.
 
 Run: ``python benchmarks/study_inject.py [--placements 5] [--objects piles,reefs] [--prior-offset M]
-[--only NAME] [--beam DEG [--detection auto]]``. ``--beam`` injects through cones of that width
-(issue 28), the objects then carry the beam's smear as well as the real noise.
+[--only NAME] [--beam DEG [--detection auto] [--untold]]``. ``--beam`` injects through cones of
+that width (issue 28), the objects then carry the beam's smear as well as the real noise, and
+``locate_piles`` is told the beam (``beam_width_deg``) unless ``--untold``.
 For each real file with at least 8 m of seabed both ways (5th to 95th percentile) and under 60 m deep, a
 jacket of four piles (radius 0.5 m, sides 6 m or half the seabed's width, tops 2 m above the seabed) is
 injected at seeded placements (shift within 1.5 m of the centre, any turn) with
@@ -192,9 +193,13 @@ def main() -> None:
     ap.add_argument("--beam", type=float, default=0.0,
                     help="inject through beams this wide (deg, across and along; 0: thin rays)")
     ap.add_argument("--detection", default="auto", help="the beam's bottom detection (with --beam)")
+    ap.add_argument("--untold", action="store_true",
+                    help="with --beam: locate_piles is not told the beam (beam_width_deg 0)")
     args = ap.parse_args()
     beam = Beam(beam_across_deg=args.beam, detection=args.detection) if args.beam > 0 else None
-    print(f"beam: {args.beam:g} deg, {args.detection} detection" if beam else "beam: thin rays")
+    told = {"beam_width_deg": args.beam, "detection": args.detection} if beam and not args.untold else {}
+    print(f"beam: {args.beam:g} deg, {args.detection} detection; locate_piles "
+          f"{'told it' if told else 'not told it'}" if beam else "beam: thin rays")
     files = _files(args.only)
     if "reefs" in args.objects:
         reef_rows = []
@@ -231,7 +236,7 @@ def main() -> None:
             truth = {p["id"]: p for p in inj.truth["piles"]}
             try:
                 res = locate_piles(PointCloud(inj.xyz, dict(cloud.fields)), count=len(piles),
-                                   radius=RADIUS + args.prior_offset, seed=k)
+                                   radius=RADIUS + args.prior_offset, seed=k, **told)
             except MBInspectError as exc:
                 aborted += 1
                 reasons.add(str(exc).split(": ", 1)[-1][:70])

@@ -11,7 +11,6 @@ from mbinspect.beam import Beam
 from mbinspect.errors import ParameterError
 from mbinspect.piles import PileOptions, locate_piles
 from mbinspect.piles.beam import PileModel, through_beam
-from mbinspect.pings import ping_geometry
 from mbinspect.simulate import LABELS, simulate
 
 
@@ -36,10 +35,10 @@ def _wall_offsets(xyz, pile):
 def test_the_true_piles_seen_through_the_beam_put_their_soundings_back_on_the_steel(wide_jacket):
     sim = wide_jacket
     xyz, f = sim.cloud.xyz, sim.cloud.fields
-    origins, axes, _ = ping_geometry(xyz, f["ping"], f["beam_angle"])
     models = [PileModel(np.array([p["x"], p["y"], p["z"]]), _axis(p), p["radius"], p["seabed_z"])
               for p in sim.truth["piles"]]
-    seen = through_beam(xyz, origins, axes, f["beam_angle"], models, Beam(beam_across_deg=1.0))
+    seen = through_beam(xyz, f["ping"], f["beam_angle"], models, Beam(beam_across_deg=1.0),
+                        reach=PileOptions(radius=0.75).neighbourhood)
     assert seen.moved > 1000 and seen.left_out > 500
     for p in sim.truth["piles"]:
         wall = (sim.labels == LABELS["pile"]) & (sim.ident == p["id"]) & (xyz[:, 2] < p["z"] - 0.3)

@@ -242,10 +242,12 @@ def test_cli_runs_on_a_real_scheduler_on_loopback(reef_lines, in_memory, tmp_pat
 
 
 @pytest.mark.slow
-def test_tiled_piles_are_the_in_memory_piles(tmp_path: Path) -> None:
-    truth = simulate_lines("jacket", tmp_path, seed=3, ping_spacing=0.5)
+@pytest.mark.parametrize("beam", [0.0, 1.0])
+def test_tiled_piles_are_the_in_memory_piles(tmp_path: Path, beam: float) -> None:
+    """Thin beams, and 1° beams with each tile's piles seen through them (issue 28)."""
+    truth = simulate_lines("jacket", tmp_path, seed=3, ping_spacing=0.5, beam_across_deg=beam)
     files = expand_inputs([tmp_path / "*.laz"])
-    opts = PileOptions(radius=truth["piles"][0]["radius"])
+    opts = PileOptions(radius=truth["piles"][0]["radius"], beam_width_deg=beam)
     whole = run_survey("piles", files, opts, SurveyOptions()).result
     tiled = run_survey("piles", files, opts, SurveyOptions(tiled=True, tile_size=40.0, workers=1)).result
     assert len(whole.piles) == len(tiled.piles) == 4
@@ -256,6 +258,7 @@ def test_tiled_piles_are_the_in_memory_piles(tmp_path: Path) -> None:
     xy = np.array([[t["x"], t["y"]] for t in truth["piles"]])
     assert max(np.hypot(*(xy - [p.x, p.y]).T).min() for p in tiled.piles) < 0.05
     assert tiled.piles[0].sources[0]["file"].endswith(".laz")
+    assert any("seen through 1° beams" in w for w in tiled.warnings) == (beam > 0)
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -9,7 +9,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["ping_origins", "ping_geometry", "estimate_pings"]
+__all__ = ["ping_origins", "ping_geometry", "estimate_pings", "ping_keys"]
 
 
 def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *, min_beams: int = 5
@@ -136,3 +136,20 @@ def estimate_pings(points: np.ndarray, *, jump: float = 20.0) -> tuple[np.ndarra
         s -= 0.5 * (s.min() + s.max())
         angle[rows] = np.degrees(np.arctan2(s, np.maximum(-pts[rows, 2], 1e-3)))
     return ping, angle
+
+
+def ping_keys(fields: dict[str, np.ndarray]) -> np.ndarray:
+    """Each sounding's ping told apart across a survey's files and lines (their ``file``
+    and ``line`` fields, where a survey has them: each file numbers its pings from its own
+    start), as one integer per ping.
+
+    Examples
+    --------
+    >>> ping_keys({"ping": np.array([1, 1, 2, 1]), "file": np.array([0, 0, 0, 1])}).tolist()
+    [0, 0, 1, 2]
+    """
+    cols = [np.asarray(fields[k], np.int64) for k in ("file", "line", "ping") if k in fields]
+    if len(cols) == 1:
+        return cols[0]
+    _, key = np.unique(np.column_stack(cols), axis=0, return_inverse=True)
+    return key.ravel()

@@ -21,7 +21,7 @@ beam's bias for that sounding:
 The pile is then measured again from the corrected soundings (twice, each time from the
 soundings as read, the bias taken from the newer model). Each sounding's ray runs from its
 ping's transducer (:func:`mbinspect.pings.ping_geometry`), so the survey must keep the ping
-and beam angle of each sounding (the sonar formats do); the steel's echo is taken to be
+and beam angle of each sounding (the sonar formats and LAS do); the steel's echo is taken to be
 ``contrast_db`` above the seabed's, measured from the soundings' intensity where they have
 one.
 """
@@ -37,6 +37,7 @@ import numpy as np
 from ..beam import Beam, cone_directions, detect, echo_energy, frame, window
 from ..fit import Cylinder
 from ..geometry import ray_cylinder
+from ..pings import ping_geometry
 from .results import PileFit
 
 __all__ = ["PileModel", "BeamCorrection", "through_beam", "pile_models", "beam_contrast"]
@@ -66,22 +67,28 @@ class BeamCorrection:
     left_out: int
 
 
-def through_beam(points: np.ndarray, origins: np.ndarray, axes: np.ndarray, beam_angle: np.ndarray,
-                 models: list[PileModel], beam: Beam, *, contrast_db: float = DEFAULT_CONTRAST_DB
-                 ) -> BeamCorrection:
+def through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, models: list[PileModel],
+                 beam: Beam, *, reach: float, contrast_db: float = DEFAULT_CONTRAST_DB) -> BeamCorrection:
     """Each sounding near a modelled pile corrected for its beam (see the module's notes).
+
+    Each pile's soundings are placed on their rays by their pings' soundings within
+    ``reach`` of it only (:func:`mbinspect.pings.ping_geometry`), so a pile in one tile of a
+    survey, which holds that much around it (:attr:`PileOptions.neighbourhood`), is corrected
+    as in the whole survey.
 
     Parameters
     ----------
     points : ndarray, shape (N, 3)
         The soundings as read.
-    origins, axes : ndarray, shape (N, 3)
-        Each sounding's transducer and its ping's swath axis (NaN: unknown; left as read).
+    ping : ndarray of int, shape (N,)
+        Each sounding's ping, unique across the survey (:func:`mbinspect.pings.ping_keys`).
     beam_angle : ndarray, shape (N,)
         Degrees from vertical (the detection changes with it).
     models : list of PileModel
     beam : Beam
         The survey's beam widths and detection.
+    reach : float
+        The neighbourhood of each pile whose soundings place the beams (m).
     contrast_db : float
         The pile's echo over the seabed's (dB).
 
@@ -93,15 +100,17 @@ def through_beam(points: np.ndarray, origins: np.ndarray, axes: np.ndarray, beam
     out = pts.copy()
     keep = np.ones(len(pts), bool)
     moved = 0
-    known = np.isfinite(origins[:, 0]) & np.isfinite(axes[:, 0])
     for model in models:
-        rows = _near(pts, origins, known, model, beam)
-        if not len(rows):
+        plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
+        local = np.flatnonzero(plan < reach)
+        origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local])
+        sel = _near(pts[local], origins, known, model, beam)
+        if not len(sel):
             continue
-        o = origins[rows]
+        rows, o = local[sel], origins[sel]
         ray = pts[rows] - o
         d = ray / np.linalg.norm(ray, axis=1, keepdims=True)
-        seen = _cast(model, beam, o, d, axes[rows], np.radians(beam_angle[rows]), contrast_db)
+        seen = _cast(model, beam, o, d, axes[sel], np.radians(beam_angle[rows]), contrast_db)
         shift = seen.on_pile & seen.axis_on_pile & np.isfinite(seen.bias)
         out[rows[shift]] -= seen.bias[shift, None] * d[shift]
         keep[rows[seen.on_pile & ~seen.axis_on_pile]] = False
@@ -111,8 +120,9 @@ def through_beam(points: np.ndarray, origins: np.ndarray, axes: np.ndarray, beam
 
 def _near(pts: np.ndarray, origins: np.ndarray, known: np.ndarray, model: PileModel, beam: Beam
           ) -> np.ndarray:
-    """The soundings whose cone may meet the pile: within the cone's reach of its plan circle
-    (at the sounding's own range) and above the seabed's metre below."""
+    """The soundings (of ``pts``) whose cone may meet the pile: placed on a ray, within the
+    cone's reach of its plan circle (at the sounding's own range), above the seabed's metre
+    below."""
     rng = np.linalg.norm(pts - np.where(known[:, None], origins, pts), axis=1)
     plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
     reach = model.radius + rng * beam.spread() + 0.5
@@ -166,7 +176,7 @@ def pile_models(piles: Sequence[PileFit], cylinders: dict[int, Cylinder], pts: n
         plan = np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)
         ring = (plan > p.radius + 1.0) & (plan < p.radius + 4.0) & (pts[:, 2] < p.z)
         seabed = float(np.percentile(pts[ring, 2], 30)) if ring.sum() >= 10 else p.z - 5.0
-        models.append(PileModel(np.array([p.x, p.y, p.z]), axis, p.radius_fitted or p.radius, seabed))
+        models.append(PileModel(np.array([p.x, p.y, p.z]), axis, p.radius, seabed))
     return models
 
 

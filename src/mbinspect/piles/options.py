@@ -111,6 +111,13 @@ class PileOptions(Options):
         """The seabed opening window used (m): given, or max(5, 4 r + 1)."""
         return self.seabed_window if self.seabed_window is not None else max(5.0, 4 * self.radius + 1)
 
+    @property
+    def neighbourhood(self) -> float:
+        """How far around a pile (m) its measurement looks: the seabed's opening window, ten
+        radii and 4 m (a jacket's pile, its side's noise, the pings that place its beams); a
+        survey tile holds this much around every pile it owns."""
+        return self.opening_window + 10 * self.radius + 4.0
+
     def beam(self) -> Beam | None:
         """The survey's beam for the correction, or None when the beams are taken as thin."""
         if self.beam_width_deg <= 0:

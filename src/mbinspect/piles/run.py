@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
@@ -12,7 +13,7 @@ from ..cloud import sources
 from ..errors import DataError
 from ..grid import sounding_spacing
 from ..io import PointCloud, pipeline_input
-from ..pings import ping_geometry
+from ..pings import ping_keys
 from ..seabed import GROUND_BAND
 from ..version import __version__
 from .accept import rejected_record, rejection_reasons
@@ -130,20 +131,44 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
     beam = opts.beam()
     if beam is None or not m.piles:
         return m
+    return _through_beam(m, cloud, pts, notes, opts, beam, progress)
+
+
+#: Most measurements of the piles through the beam, and the largest centre move (m) between
+#: two that stops them sooner.
+BEAM_PASSES, BEAM_SETTLED = 4, 0.001
+
+
+def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: PileOptions,
+                  beam: Any, progress: Callable[[float], None] | None) -> MeasuredPiles:
+    """The piles measured again from soundings corrected through the beam
+    (:mod:`mbinspect.piles.beam`), each time from the soundings as read with the bias taken
+    from the newer model, until no centre moves by :data:`BEAM_SETTLED`; what the last
+    pass moved each centre is taken as what the beam's bias leaves in it, and joins its
+    plan covariance (a geometric convergence leaves about as much as its last step)."""
     ping, angle = cloud.fields.get("ping"), cloud.fields.get("beam_angle")
     if ping is None or angle is None:
         return replace(m, warnings=(*m.warnings, "beam_width_deg: the soundings carry no ping and beam angle "
                                     "to place their beams; the beam's bias was not corrected"))
-    origins, axes, _ = ping_geometry(pts, ping, angle)
+    keys = ping_keys(dict(cloud.fields))
     contrast_db = beam_contrast(cloud.fields.get("intensity") if opts.use_intensity else None, pts, m.piles)
-    for _ in range(2):  # each time from the soundings as read, the bias from the newer model
-        seen = through_beam(pts, origins, axes, angle, pile_models(m.piles, m.cylinders, pts), beam,
-                            contrast_db=contrast_db)
+    passes, settled = 0, False
+    while not settled:
+        passes += 1
+        seen = through_beam(pts, keys, angle, pile_models(m.piles, m.cylinders, pts), beam,
+                            reach=opts.neighbourhood, contrast_db=contrast_db)
+        before = np.array([[p.x, p.y] for p in m.piles])
         m = _measure_points(cloud.subset(seen.keep), seen.points[seen.keep], notes, opts, progress)
+        moves = [float(np.hypot(*(before - [p.x, p.y]).T).min()) if len(before) else 0.0 for p in m.piles]
+        settled = max(moves, default=0.0) < BEAM_SETTLED or passes == BEAM_PASSES
+    covs = {p.id: m.covs[p.id] + move**2 * np.eye(2) for p, move in zip(m.piles, moves, strict=True)}
+    piles = tuple(replace(p, sigma_xy=math.sqrt(p.sigma_xy**2 + move**2))
+                  for p, move in zip(m.piles, moves, strict=True))
     note = (f"seen through {opts.beam_width_deg:g}° beams ({opts.detection} detection, the steel's echo "
-            f"{contrast_db:.0f} dB over the seabed's): {seen.moved:,} soundings moved back along their "
-            f"beams, {seen.left_out:,} left out as the steel's echo heard beside the piles")
-    return replace(m, warnings=(*m.warnings, note))
+            f"{contrast_db:.0f} dB over the seabed's; {passes} passes, the last moving a centre by at most "
+            f"{1000 * max(moves, default=0.0):.1f} mm, kept in its 1-sigma): {seen.moved:,} soundings moved "
+            f"back along their beams, {seen.left_out:,} left out as the steel's echo heard beside the piles")
+    return replace(m, piles=piles, covs=covs, warnings=(*m.warnings, note))
 
 
 def _measure_points(cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: PileOptions,

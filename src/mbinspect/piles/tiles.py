@@ -30,8 +30,8 @@ class PilesPipeline:
     fields: tuple[str, ...] = ("ping", "intensity", "beam_angle")
 
     def buffer(self, options: PileOptions) -> float:
-        """The seabed opening window and ten radii (a jacket's pile and its side's noise)."""
-        return float(math.ceil(options.opening_window + 10 * options.radius + 5.0))
+        """A pile's neighbourhood and a metre (:attr:`PileOptions.neighbourhood`)."""
+        return float(math.ceil(options.neighbourhood + 1.0))
 
     def grid_cell(self, options: PileOptions) -> float:
         return float(options.seabed_cell)
