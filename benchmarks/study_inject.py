@@ -197,7 +197,10 @@ def main() -> None:
                     help="with --beam: locate_piles is not told the beam (beam_width_deg 0)")
     args = ap.parse_args()
     beam = Beam(beam_across_deg=args.beam, detection=args.detection) if args.beam > 0 else None
-    told = {"beam_width_deg": args.beam, "detection": args.detection} if beam and not args.untold else {}
+    # the injection gives the steel's echo 20 dB over the seabed's (the simulator's materials)
+    # but leaves the soundings' intensities as they were: the correction is told the contrast
+    told = ({"beam_width_deg": args.beam, "detection": args.detection, "beam_contrast_db": 20.0}
+            if beam and not args.untold else {})
     print(f"beam: {args.beam:g} deg, {args.detection} detection; locate_piles "
           f"{'told it' if told else 'not told it'}" if beam else "beam: thin rays")
     files = _files(args.only)

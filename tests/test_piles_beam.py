@@ -78,3 +78,23 @@ def test_without_pings_the_beam_is_not_corrected_and_says_so(wide_jacket):
 def test_a_beam_too_wide_is_named():
     with pytest.raises(ParameterError, match="beam_width_deg: 12"):
         PileOptions(radius=0.75, beam_width_deg=12.0)
+
+
+def test_piles_command_through_the_beam(tmp_path, capsys):
+    import json
+
+    from mbinspect.cli import main
+    from mbinspect.io import write
+
+    sim = simulate("jacket", seed=2, ping_spacing=0.4, beam_across_deg=1.0)
+    write(sim.cloud, tmp_path / "s.npz")
+    out = tmp_path / "out"
+    code = main(["piles", str(tmp_path / "s.npz"), "--radius", "0.75", "--count", "4",
+                 "--beam-width-deg", "1", "--beam-contrast-db", "20", "--out", str(out)])
+    assert code in (0, 3)  # 3: a pile flagged on this sparse survey
+    got = json.loads((out / "piles.json").read_text())
+    assert got["parameters"]["beam_width_deg"] == 1.0 and got["parameters"]["beam_contrast_db"] == 20.0
+    assert any("seen through 1° beams" in w and "20 dB" in w for w in got["warnings"])
+    assert main(["piles", str(tmp_path / "s.npz"), "--radius", "0.75", "--beam-width-deg", "12",
+                 "--out", str(tmp_path / "bad")]) == 2
+    assert "--beam-width-deg: 12" in capsys.readouterr().err

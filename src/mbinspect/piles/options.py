@@ -98,6 +98,10 @@ class PileOptions(Options):
                             "leading-edge, or auto (amplitude near nadir, phase outside)")
     phase_from_deg: float = option(15.0, unit="deg", check="non_negative",
                                    help="beam angle from which auto detection uses the phase")
+    beam_contrast_db: float | None = option(None, unit="dB", check="non_negative", kind=float,
+                                            help="how much stronger the piles' echo is than the seabed's, "
+                                            "for the beam correction (none: from the soundings' intensity "
+                                            "in dB where they have one, else 20 dB)")
     seed: int = option(0, help="random seed", check="seed")
 
     def check_together(self) -> None:

@@ -151,7 +151,8 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
         return replace(m, warnings=(*m.warnings, "beam_width_deg: the soundings carry no ping and beam angle "
                                     "to place their beams; the beam's bias was not corrected"))
     keys = ping_keys(dict(cloud.fields))
-    contrast_db = beam_contrast(cloud.fields.get("intensity") if opts.use_intensity else None, pts, m.piles)
+    contrast_db = opts.beam_contrast_db if opts.beam_contrast_db is not None else beam_contrast(
+        cloud.fields.get("intensity") if opts.use_intensity else None, pts, m.piles)
     passes, settled = 0, False
     while not settled:
         passes += 1
