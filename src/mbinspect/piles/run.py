@@ -127,11 +127,19 @@ def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
         Soundings too sparse for the radius, no point above the seabed, no candidate.
     """
     cloud, pts, notes = pipeline_input(data, crop=opts.crop)
-    m = _measure_points(cloud, pts, notes, opts, progress)
     beam = opts.beam()
+    m = _measure_points(cloud, pts, notes, opts, _share(progress, 0.0, 1.0 if beam is None else 0.4))
     if beam is None or not m.piles:
         return m
     return _through_beam(m, cloud, pts, notes, opts, beam, progress)
+
+
+def _share(progress: Callable[[float], None] | None, start: float, stop: float
+           ) -> Callable[[float], None] | None:
+    """``progress`` over ``start`` to ``stop`` of the whole (one of several measurements)."""
+    if progress is None or (start, stop) == (0.0, 1.0):
+        return progress
+    return lambda f: progress(start + (stop - start) * f)
 
 
 #: Most measurements of the piles through the beam, and the largest centre move (m) between
@@ -159,7 +167,9 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
         seen = through_beam(pts, keys, angle, pile_models(m.piles, m.cylinders, pts), beam,
                             reach=opts.neighbourhood, contrast_db=contrast_db)
         before = np.array([[p.x, p.y] for p in m.piles])
-        m = _measure_points(cloud.subset(seen.keep), seen.points[seen.keep], notes, opts, progress)
+        share = (1.0 - 0.4) / BEAM_PASSES
+        m = _measure_points(cloud.subset(seen.keep), seen.points[seen.keep], notes, opts,
+                            _share(progress, 0.4 + share * (passes - 1), 0.4 + share * passes))
         moves = [float(np.hypot(*(before - [p.x, p.y]).T).min()) if len(before) else 0.0 for p in m.piles]
         settled = max(moves, default=0.0) < BEAM_SETTLED or passes == BEAM_PASSES
     covs = {p.id: m.covs[p.id] + move**2 * np.eye(2) for p, move in zip(m.piles, moves, strict=True)}
