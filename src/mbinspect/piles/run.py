@@ -9,6 +9,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..beam import Beam
 from ..cloud import sources
 from ..errors import DataError
 from ..grid import sounding_spacing
@@ -148,7 +149,7 @@ BEAM_PASSES, BEAM_SETTLED = 4, 0.001
 
 
 def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: PileOptions,
-                  beam: Any, progress: Callable[[float], None] | None) -> MeasuredPiles:
+                  beam: Beam, progress: Callable[[float], None] | None) -> MeasuredPiles:
     """The piles measured again from soundings corrected through the beam
     (:mod:`mbinspect.piles.beam`), each time from the soundings as read with the bias taken
     from the newer model, until no centre moves by :data:`BEAM_SETTLED`; what the last

@@ -51,7 +51,8 @@ def cast_cones(beam: Beam, targets: list[Target], o: np.ndarray, d: np.ndarray, 
     dirs = cone_directions(beam, d, a, b)
     origins = np.repeat(o, s, axis=0)
     normal = np.repeat(plane_normal, s, axis=0)
-    height = np.repeat(np.einsum("ij,ij->i", plane_point - o, plane_normal), s)
+    above = np.einsum("ij,ij->i", plane_point - o, plane_normal)  # each origin's height over its plane
+    height = np.repeat(above, s)
     den = np.einsum("ij,ij->i", dirs, normal)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(den < -1e-9, height / den, np.inf)
@@ -65,8 +66,7 @@ def cast_cones(beam: Beam, targets: list[Target], o: np.ndarray, d: np.ndarray, 
         bs[idx] = MATERIAL_BS[tg.material]
         materials.add(tg.material)
     shape = (len(o), s)
-    r0 = np.einsum("ij,ij->i", plane_point - o, plane_normal) / np.minimum(
-        np.einsum("ij,ij->i", d, plane_normal), -1e-9)
+    r0 = above / np.minimum(np.einsum("ij,ij->i", d, plane_normal), -1e-9)
     half = window(beam, r0, -np.einsum("ij,ij->i", d, plane_normal))
     cos_plane = np.clip(-np.einsum("ij,ij->i", dirs, np.repeat(plane_normal, s, axis=0)), 0.0, 1.0)
     cos_inc = np.clip(-np.einsum("ij,ij->i", dirs, normal), 0.0, 1.0)
