@@ -59,12 +59,15 @@ class PileModel:
 
 @dataclass(frozen=True, eq=False)
 class BeamCorrection:
-    """The soundings corrected for the beam: new coordinates, which to keep, and counts."""
+    """The soundings corrected for the beam: new coordinates, which to keep, counts, and per
+    model half the footprint of the beams that reach it (m: median range × tan(width) / 2),
+    the scale of what the beam blurs where the model itself is uncertain."""
 
     points: np.ndarray
     keep: np.ndarray
     moved: int
     left_out: int
+    half_footprints: tuple[float, ...] = ()
 
 
 def through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, models: list[PileModel],
@@ -100,22 +103,26 @@ def through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, m
     out = pts.copy()
     keep = np.ones(len(pts), bool)
     moved = 0
+    halves = []
     for model in models:
         plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
         local = np.flatnonzero(plan < reach)
         origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local])
         sel = _near(pts[local], origins, known, model, beam)
+        halves.append(0.0)
         if not len(sel):
             continue
         rows, o = local[sel], origins[sel]
         ray = pts[rows] - o
-        d = ray / np.linalg.norm(ray, axis=1, keepdims=True)
+        length = np.linalg.norm(ray, axis=1)
+        halves[-1] = float(np.median(length)) * math.tan(max(beam.widths())) / 2
+        d = ray / length[:, None]
         seen = _cast(model, beam, o, d, axes[sel], np.radians(beam_angle[rows]), contrast_db)
         shift = seen.on_pile & seen.axis_on_pile & np.isfinite(seen.bias)
         out[rows[shift]] -= seen.bias[shift, None] * d[shift]
         keep[rows[seen.on_pile & ~seen.axis_on_pile]] = False
         moved += int(shift.sum())
-    return BeamCorrection(out, keep, moved, int((~keep).sum()))
+    return BeamCorrection(out, keep, moved, int((~keep).sum()), tuple(halves))
 
 
 def _near(pts: np.ndarray, origins: np.ndarray, known: np.ndarray, model: PileModel, beam: Beam

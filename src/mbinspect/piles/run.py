@@ -153,8 +153,9 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
     """The piles measured again from soundings corrected through the beam
     (:mod:`mbinspect.piles.beam`), each time from the soundings as read with the bias taken
     from the newer model, until no centre moves by :data:`BEAM_SETTLED`; what the last
-    pass moved each centre is taken as what the beam's bias leaves in it, and joins its
-    plan covariance (a geometric convergence leaves about as much as its last step)."""
+    pass moved each centre is taken as what the beam's bias leaves in it (a geometric
+    convergence leaves about as much as its last step), or half its beams' footprint where
+    its wall has too few soundings (``min_side``) to fit, and joins its plan covariance."""
     ping, angle = cloud.fields.get("ping"), cloud.fields.get("beam_angle")
     if ping is None or angle is None:
         return replace(m, warnings=(*m.warnings, "beam_width_deg: the soundings carry no ping and beam angle "
@@ -165,22 +166,37 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
     passes, settled = 0, False
     while not settled:
         passes += 1
-        seen = through_beam(pts, keys, angle, pile_models(m.piles, m.cylinders, pts), beam,
-                            reach=opts.neighbourhood, contrast_db=contrast_db)
+        models = pile_models(m.piles, m.cylinders, pts)
+        seen = through_beam(pts, keys, angle, models, beam, reach=opts.neighbourhood, contrast_db=contrast_db)
         before = np.array([[p.x, p.y] for p in m.piles])
         share = (1.0 - 0.4) / BEAM_PASSES
         m = _measure_points(cloud.subset(seen.keep), seen.points[seen.keep], notes, opts,
                             _share(progress, 0.4 + share * (passes - 1), 0.4 + share * passes))
         moves = [float(np.hypot(*(before - [p.x, p.y]).T).min()) if len(before) else 0.0 for p in m.piles]
         settled = max(moves, default=0.0) < BEAM_SETTLED or passes == BEAM_PASSES
-    covs = {p.id: m.covs[p.id] + move**2 * np.eye(2) for p, move in zip(m.piles, moves, strict=True)}
-    piles = tuple(replace(p, sigma_xy=math.sqrt(p.sigma_xy**2 + move**2))
-                  for p, move in zip(m.piles, moves, strict=True))
+    m = _with_beam_sigma(m, moves, models, seen.half_footprints, opts.min_side)
     note = (f"seen through {opts.beam_width_deg:g}° beams ({opts.detection} detection, the steel's echo "
             f"{contrast_db:.0f} dB over the seabed's; {passes} passes, the last moving a centre by at most "
-            f"{1000 * max(moves, default=0.0):.1f} mm, kept in its 1-sigma): {seen.moved:,} soundings moved "
-            f"back along their beams, {seen.left_out:,} left out as the steel's echo heard beside the piles")
-    return replace(m, piles=piles, covs=covs, warnings=(*m.warnings, note))
+            f"{1000 * max(moves, default=0.0):.1f} mm, kept in its 1-sigma, as half a footprint for a pile "
+            f"with too few wall soundings): {seen.moved:,} soundings moved back along their beams, "
+            f"{seen.left_out:,} left out as the steel's echo heard beside the piles")
+    return replace(m, warnings=(*m.warnings, note))
+
+
+def _with_beam_sigma(m: MeasuredPiles, moves: list[float], models: list[Any],
+                     half_footprints: tuple[float, ...],
+                     min_side: int) -> MeasuredPiles:
+    """Each pile's plan covariance widened by what the beam's bias leaves in its centre: the
+    last pass's move, and for a pile whose wall has too few soundings to fit (its centre from
+    the top's edge, which the beam blurs however well the passes settle) at least half the
+    footprint of the beams that reach it."""
+    tops = np.array([mo.top[:2] for mo in models])
+    left = [max(move, half_footprints[int(np.argmin(np.hypot(*(tops - [p.x, p.y]).T)))])
+            if p.n_side < min_side else move for p, move in zip(m.piles, moves, strict=True)]
+    covs = {p.id: m.covs[p.id] + s**2 * np.eye(2) for p, s in zip(m.piles, left, strict=True)}
+    piles = tuple(replace(p, sigma_xy=math.sqrt(p.sigma_xy**2 + s**2))
+                  for p, s in zip(m.piles, left, strict=True))
+    return replace(m, piles=piles, covs=covs)
 
 
 def _measure_points(cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: PileOptions,
