@@ -207,7 +207,8 @@ def _zero_crossing(r: np.ndarray, ew: np.ndarray, u: np.ndarray, mean: np.ndarra
     seen = ew > 0
     lo = np.where(seen, u, np.inf).min(axis=1)
     hi = np.where(seen, u, -np.inf).max(axis=1)
-    levels = np.array([np.unique(u[s]).size for s in seen])
+    across, column = np.unique(u, return_inverse=True)  # each sub-ray's across angle, as a column
+    levels = ((seen @ (column.ravel()[:, None] == np.arange(len(across)))) > 0).sum(axis=1)
     degree = np.where((lo < 0) & (hi > 0) & (levels >= 3), 2, np.where(levels >= 2, 1, 0))
     out = mean.copy()
     for deg in (1, 2):

@@ -18,8 +18,9 @@ beam's bias for that sounding:
   wall, a wing beside the top) is left out;
 - a sounding the seabed's echo still makes stays as it is.
 
-The pile is then measured again from the corrected soundings (twice, each time from the
-soundings as read, the bias taken from the newer model). Each sounding's ray runs from its
+The pile is then measured again from the corrected soundings (each time from the soundings
+as read, the bias taken from the newer model, until no centre moves by a millimetre:
+:func:`mbinspect.piles.run.measure_piles`). Each sounding's ray runs from its
 ping's transducer (:func:`mbinspect.pings.ping_geometry`), so the survey must keep the ping
 and beam angle of each sounding (the sonar formats and LAS do); the steel's echo is taken to be
 ``contrast_db`` above the seabed's, measured from the soundings' intensity where they have
