@@ -255,6 +255,10 @@ def test_tiled_piles_are_the_in_memory_piles(tmp_path: Path, beam: float) -> Non
         assert (p.id, p.group) == (q.id, q.group)
         assert abs(p.x - q.x) < 1e-3 and abs(p.y - q.y) < 1e-3 and abs(p.sigma_xy - q.sigma_xy) < 1e-6
     assert [round(s.distance, 4) for s in whole.spacings] == [round(s.distance, 4) for s in tiled.spacings]
+    # the top levels are fitted with the lines' offsets across the tiles' piles, as in one cloud
+    assert all(len(p.top_lines) >= 2 for p in tiled.piles)
+    assert [round(p.top_z, 5) for p in whole.piles] == [round(p.top_z, 5) for p in tiled.piles]
+    assert [round(v.sigma, 5) for v in whole.levels] == [round(v.sigma, 5) for v in tiled.levels]
     xy = np.array([[t["x"], t["y"]] for t in truth["piles"]])
     assert max(np.hypot(*(xy - [p.x, p.y]).T).min() for p in tiled.piles) < 0.05
     assert tiled.piles[0].sources[0]["file"].endswith(".laz")

@@ -47,8 +47,9 @@ def finish_piles(result: Any, points: Any, tmp: Path, out: Path, args: argparse.
     for p in result.piles:
         for f in p.flags:
             print(f"mbinspect: warning: pile {p.id}: {f}", file=sys.stderr)
-    rep.info(f"results in {out}/ (report.html, piles.json, piles.csv, spacings.csv)")
-    verdicts = [s.verdict for s in result.spacings] + [f.verdict for f in result.frames]
+    rep.info(f"results in {out}/ (report.html, piles.json, piles.csv, spacings.csv, levels.csv)")
+    verdicts = [s.verdict for s in result.spacings] + [f.verdict for f in result.frames] + [
+        v.verdict for v in result.levels] + [p.top_verdict for p in result.piles]
     if "fail" in verdicts or not result.ok:
         rep.info(FLAGGED_MEANING)
         return EXIT_FLAGGED
@@ -56,9 +57,10 @@ def finish_piles(result: Any, points: Any, tmp: Path, out: Path, args: argparse.
 
 
 #: The one line that says what the exit status 3 and the pile flags mean.
-FLAGGED_MEANING = ("exit 3: a spacing failed its tolerance or a pile is flagged: its warning says why the "
-                   "data cannot support a centimetre answer there (too few lines or sides seen, a plan "
-                   "1-sigma over --max-sigma); the results are written and the report shows each reason")
+FLAGGED_MEANING = ("exit 3: a spacing, frame or top level failed its tolerance, or a pile is flagged: its "
+                   "warning says why the data cannot support a centimetre answer there (too few lines "
+                   "or sides seen, a plan 1-sigma over --max-sigma); the results are written and the "
+                   "report shows each reason")
 
 
 def _cmd_piles(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
@@ -89,7 +91,7 @@ def add_parser(sub: Any) -> None:
 
     p = subcommand(sub, "piles", "locate piles and every pile spacing",
              "Locate underwater piles (top centre, radius, tilt) and every pile-to-pile spacing; "
-             "compare with a design. Writes piles.json, piles.csv, spacings.csv, figures and "
+             "compare with a design. Writes piles.json, piles.csv, spacings.csv, levels.csv, figures and "
              "report.html. Exit status 3: results written, but a pile is flagged or a spacing "
              "fails the design tolerance.",
              "examples:\n  mbinspect piles survey.laz --count 4 --radius 0.75 --design design.csv\n"

@@ -24,13 +24,16 @@ __all__ = ["Design", "read_design"]
 
 @dataclass(frozen=True)
 class Design:
-    """A design: pile positions (id -> x, y) or pile-pair spacings ((a, b) -> distance), and
-    the jacket (group) of each pile id when the design file has a ``group`` column."""
+    """A design: pile positions (id -> x, y) or pile-pair spacings ((a, b) -> distance), the
+    jacket (group) of each pile id when the design file has a ``group`` column, and each
+    pile's top elevation (m, the survey's vertical reference) with a ``top`` or ``cutoff``
+    column."""
 
     positions: dict[int, tuple[float, float]] = field(default_factory=dict)
     spacings: dict[tuple[int, int], float] = field(default_factory=dict)
     source: str | None = None
     groups: dict[int, int] = field(default_factory=dict)
+    tops: dict[int, float] = field(default_factory=dict)
 
     def spacing(self, a: int, b: int) -> float | None:
         """The design distance between piles ``a`` and ``b`` (m), or None if not designed."""
@@ -43,7 +46,8 @@ class Design:
 
 
 def read_design(path: str | Path) -> Design:
-    """Read a design CSV: ``[group,]id,x,y`` (positions, m) or ``a,b,distance`` (spacings, m).
+    """Read a design CSV: ``[group,]id,x,y[,top]`` (positions and top elevations, m; ``cutoff``
+    for ``top`` too) or ``a,b,distance`` (spacings, m).
 
     A header row is required; ``#`` lines and blank lines are skipped.
 
@@ -90,21 +94,7 @@ def read_design(path: str | Path) -> Design:
     if not body:
         raise InputError(f"{p}: the design file has a header but no rows")
     if {"id", "x", "y"} <= set(header):
-        grouped = "group" in header
-        names = (("group",) if grouped else ()) + ("id", "x", "y")
-        cols = [header.index(c) for c in names]
-        positions: dict[int, tuple[float, float]] = {}
-        groups: dict[int, int] = {}
-        for lineno, cells in body:
-            v = _design_row(p, lineno, cells, cols, header, n_ids=2 if grouped else 1)
-            if grouped:
-                groups[int(v[1])] = int(v[0])
-                v = v[1:]
-            pid, x, y = int(v[0]), v[1], v[2]
-            if pid in positions:
-                raise InputError(f"{p}, line {lineno}: pile id {pid} appears twice")
-            positions[pid] = (x, y)
-        return Design(positions=positions, source=str(p), groups=groups)
+        return _positions(p, header, body)
     if {"a", "b", "distance"} <= set(header):
         cols = [header.index(c) for c in ("a", "b", "distance")]
         spacings: dict[tuple[int, int], float] = {}
@@ -120,6 +110,29 @@ def read_design(path: str | Path) -> Design:
     raise InputError(
         f"{p}, line {rows[0][0]}: header {rows[0][1]} has neither id,x,y nor a,b,distance"
     )
+
+
+def _positions(p: Path, header: list[str], body: list[tuple[int, list[str]]]) -> Design:
+    """A design of positions: ``[group,]id,x,y[,top|cutoff]``."""
+    grouped = "group" in header
+    top_col = next((c for c in ("top", "cutoff") if c in header), None)
+    names = (("group",) if grouped else ()) + ("id", "x", "y") + ((top_col,) if top_col else ())
+    cols = [header.index(c) for c in names]
+    positions: dict[int, tuple[float, float]] = {}
+    groups: dict[int, int] = {}
+    tops: dict[int, float] = {}
+    for lineno, cells in body:
+        v = _design_row(p, lineno, cells, cols, header, n_ids=2 if grouped else 1)
+        if grouped:
+            groups[int(v[1])] = int(v[0])
+            v = v[1:]
+        pid, x, y = int(v[0]), v[1], v[2]
+        if pid in positions:
+            raise InputError(f"{p}, line {lineno}: pile id {pid} appears twice")
+        positions[pid] = (x, y)
+        if top_col:
+            tops[pid] = v[3]
+    return Design(positions=positions, source=str(p), groups=groups, tops=tops)
 
 
 def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header: list[str],

@@ -67,7 +67,8 @@ def _fit_one(design_xy: np.ndarray, measured: np.ndarray, covs: Sequence[np.ndar
 
 
 def fit_frames(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: Design | None, *,
-               tolerance: float) -> tuple[FrameFit, ...]:
+               tolerance: float, shims: dict[int, tuple[float, float]] | None = None
+               ) -> tuple[FrameFit, ...]:
     """Per group of at least three piles with design positions, the frame fit and its verdict.
 
     Parameters
@@ -80,6 +81,10 @@ def fit_frames(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: De
         Positions are needed; none: no frame is fitted.
     tolerance : float
         How far a pile may miss the fitted frame (m).
+    shims : dict, optional
+        Pile id -> the packing (m) and its 1-sigma its leg needs under a level frame
+        (:func:`~mbinspect.piles.level.leg_shims`), given in each row as ``shim`` and
+        ``shim_sigma``.
 
     Returns
     -------
@@ -115,8 +120,11 @@ def fit_frames(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: De
             sigma = widen * math.sqrt(max(float(np.trace(c)) / 2, 0.0))
             verdict = decide(miss, sigma, tolerance)
             verdicts.append(verdict)
-            rows.append({"id": p.id, "dx": float(r[0]), "dy": float(r[1]), "miss": miss, "sigma": sigma,
-                         "miss_95": miss + Z95 * sigma, "verdict": verdict})
+            row = {"id": p.id, "dx": float(r[0]), "dy": float(r[1]), "miss": miss, "sigma": sigma,
+                   "miss_95": miss + Z95 * sigma, "verdict": verdict}
+            if shims and p.id in shims:
+                row["shim"], row["shim_sigma"] = shims[p.id]
+            rows.append(row)
         overall = "fail" if "fail" in verdicts else ("undecided" if "undecided" in verdicts else "pass")
         out.append(FrameFit(g, math.degrees(angle), float(shift[0]), float(shift[1]), tuple(rows), tolerance,
                             overall))

@@ -50,6 +50,9 @@ class PileOptions(Options):
                              check="bool")
     frame_tolerance: float = option(0.05, unit="m", help="how far a pile may miss its jacket's fitted "
                                     "design frame (decided at 95 per cent)", check="positive")
+    level_tolerance: float = option(0.02, unit="m", help="how far a top may miss the design's top level, "
+                                    "and a level difference the design's (decided at 95 per cent)",
+                                    check="positive")
     crop: tuple[Any, ...] | None = option(
         None, unit="m", help="keep only this box (xmin,ymin,xmax,ymax) or polygon (x1,y1,x2,y2,...)",
         check=crop_value, kind=tuple, metavar="XMIN,YMIN,XMAX,YMAX", parse=parse_crop)

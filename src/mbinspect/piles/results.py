@@ -16,9 +16,10 @@ import numpy as np
 from ..fit import Cylinder, Plane
 from ..outputs import Recorded, record_from, to_jsonable
 from ..seabed import GridSurface
+from .pairs import FrameFit, Level, Spacing
 
 __all__ = ["PileSegment", "PileMeasure", "PileFit", "RejectedPile", "Spacing", "FrameFit", "PileResult",
-           "plan_sigma"]
+           "plan_sigma", "Level"]
 
 
 def plan_sigma(cov: np.ndarray) -> float:
@@ -134,7 +135,11 @@ class PileFit:
     """One pile: top centre (x, y, z), radius, tilt, quality and the reasons for doubt.
 
     ``x, y, z`` are the top centre by ``method``. With both methods the other method's
-    centre is in ``alternatives``.
+    centre is in ``alternatives``. ``top_z`` is the top's level with the survey lines'
+    vertical offsets fitted out (:mod:`~mbinspect.piles.level`) and ``top_z_sigma`` its
+    1-sigma (NaN: the data cannot show it); ``top_z_lower_bound`` when no beam reached the
+    top; ``top_design``, ``top_deviation`` and ``top_verdict`` against a design's ``top``;
+    ``top_lines`` each line's mean height over the top plane (what the levels are fitted from).
     """
 
     id: int
@@ -159,6 +164,13 @@ class PileFit:
     jackknife: str = ""
     sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
     tilt_held: bool = False
+    top_z: float | None = None
+    top_z_sigma: float = math.nan
+    top_z_lower_bound: bool = False
+    top_design: float | None = None
+    top_deviation: float | None = None
+    top_verdict: str | None = None
+    top_lines: tuple[dict[str, Any], ...] = field(default=(), repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``piles.json``; the other method's centre under ``methods``."""
@@ -170,6 +182,10 @@ class PileFit:
             "sigma_xy": self.sigma_xy, "line_sigma_xy": self.line_sigma_xy,
             "jackknife": self.jackknife or None, "flags": list(self.flags),
             "radius_fitted": self.radius_fitted, "top_coverage": self.top_coverage,
+            "top_z": self.top_z, "top_z_sigma": self.top_z_sigma,
+            "top_z_lower_bound": self.top_z_lower_bound, "top_design": self.top_design,
+            "top_deviation": self.top_deviation, "top_verdict": self.top_verdict,
+            "top_lines": list(self.top_lines),
         }
         if self.alternatives:
             d["methods"] = self.alternatives
@@ -217,80 +233,6 @@ class RejectedPile:
         return record_from(cls, d)
 
 
-@dataclass(frozen=True)
-class Spacing:
-    """The horizontal distance between two pile top centres, its 1-sigma and the design.
-
-    ``verdict`` decides at 95 %: ``pass`` when |deviation| + 1.96 sigma is within the
-    tolerance, ``fail`` when |deviation| - 1.96 sigma exceeds it, else ``undecided``;
-    ``passed`` is True, False or None accordingly (None also without a design). The JSON
-    row adds the distance's 95 % interval, ``low_95`` and ``high_95`` (distance ∓ 1.96 sigma).
-
-    Examples
-    --------
-    >>> d = Spacing(1, 2, 22.004, 0.005).to_dict()
-    >>> round(d["low_95"], 4), round(d["high_95"], 4)
-    (21.9942, 22.0138)
-    """
-
-    a: int
-    b: int
-    distance: float
-    sigma: float
-    design: float | None = None
-    deviation: float | None = None
-    passed: bool | None = None
-    method: str = "intersection"
-    verdict: str | None = None
-    group: int = 1
-
-    def to_dict(self) -> dict[str, Any]:
-        """One row of ``spacings`` in ``piles.json``."""
-        return to_jsonable({"group": self.group, "a": self.a, "b": self.b, "distance": self.distance,
-                            "sigma": self.sigma, "low_95": self.distance - 1.96 * self.sigma,
-                            "high_95": self.distance + 1.96 * self.sigma, "design": self.design,
-                            "deviation": self.deviation, "verdict": self.verdict, "pass": self.passed,
-                            "method": self.method})
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Spacing:
-        """The spacing of a ``spacings`` row (its 95 % bounds follow from it)."""
-        return record_from(cls, d, passed=d.get("pass"))
-
-
-@dataclass(frozen=True)
-class FrameFit:
-    """A jacket's prefabricated frame (its design template) fitted to the measured centres.
-
-    The best rigid plan transform (rotation, shift) of the design positions of the group
-    onto the measured top centres, weighted by their covariances. ``residuals`` holds, per
-    pile, the plan miss of the measured centre from the fitted frame (m) and its 1-sigma;
-    ``verdict`` says whether the frame fits within ``tolerance`` at 95 %: ``pass`` when every
-    miss + 1.96 sigma is within it, ``fail`` when a miss - 1.96 sigma exceeds it, else
-    ``undecided``.
-    """
-
-    group: int
-    rotation_deg: float
-    shift_x: float
-    shift_y: float
-    residuals: tuple[dict[str, Any], ...]
-    tolerance: float
-    verdict: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """The frame fit, JSON-ready."""
-        return to_jsonable({"group": self.group, "rotation_deg": self.rotation_deg,
-                            "shift_x": self.shift_x, "shift_y": self.shift_y,
-                            "residuals": list(self.residuals), "tolerance": self.tolerance,
-                            "verdict": self.verdict})
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> FrameFit:
-        """The frame fit of a ``frames`` row."""
-        return record_from(cls, d)
-
-
 @dataclass(frozen=True, eq=False)
 class PileResult:
     """Everything :func:`~mbinspect.piles.locate_piles` measured; ``to_dict()`` is ``piles.json``.
@@ -318,6 +260,8 @@ class PileResult:
         Per jacket, the design frame fitted to the measured centres.
     rejected : tuple of dict
         Candidates that cannot be standing piles, with the reasons (:mod:`.accept`).
+    levels : tuple of Level
+        Every pair of a jacket's top level difference (:mod:`.level`).
     """
 
     piles: tuple[PileFit, ...]
@@ -333,6 +277,7 @@ class PileResult:
     segmentation: dict[str, Any] = field(default_factory=dict)
     frames: tuple[FrameFit, ...] = ()
     rejected: tuple[RejectedPile, ...] = ()
+    levels: tuple[Level, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The result as JSON-ready dicts and lists (``piles.json``)."""
@@ -344,6 +289,7 @@ class PileResult:
             "parameters": to_jsonable(self.parameters),
             "segmentation": to_jsonable(self.segmentation),
             "frames": [f.to_dict() for f in self.frames],
+            "levels": [lv.to_dict() for lv in self.levels],
             "rejected": [r.to_dict() for r in self.rejected],
             "warnings": list(self.warnings),
             "seabed": self.seabed.to_dict() if self.seabed is not None else None,
@@ -366,7 +312,8 @@ class PileResult:
                    seabed=None if seabed is None else Recorded(seabed), other_spacings=spacings[split:],
                    other_piles=others, segmentation=dict(d.get("segmentation", {})),
                    frames=tuple(FrameFit.from_dict(f) for f in d.get("frames", [])),
-                   rejected=tuple(RejectedPile.from_dict(r) for r in d.get("rejected", [])))
+                   rejected=tuple(RejectedPile.from_dict(r) for r in d.get("rejected", [])),
+                   levels=tuple(Level.from_dict(r) for r in d.get("levels", [])))
 
     @property
     def ok(self) -> bool:

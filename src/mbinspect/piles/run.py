@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -18,22 +18,20 @@ from ..pings import ping_keys
 from ..seabed import GROUND_BAND
 from ..version import __version__
 from .accept import rejected_record, rejection_reasons
-from .assess import assess_pile, other_method_piles
+from .assess import assess_pile
 from .beam import beam_contrast, pile_models, through_beam
 from .design import Design
 from .elevate import elevated_points, pile_base, pile_thresholds
-from .frame import fit_frames
-from .group import group_piles
 from .iterate import iterate
-from .match import apply_design
+from .level import top_lines
 from .options import PileOptions
-from .radius import JointRadius, joint_radius, with_radius_sigma
-from .results import PileFit, PileResult, RejectedPile, Spacing
+from .radius import joint_radius, with_radius_sigma
+from .relate import MeasuredPiles, relate_piles
+from .results import PileFit, PileResult, RejectedPile
 from .separate import separate_piles
-from .space import spacings
 from .split import segment_piles
 
-__all__ = ["locate_piles", "measure_piles", "relate_piles", "MeasuredPiles", "no_pile_found"]
+__all__ = ["locate_piles", "measure_piles", "MeasuredPiles", "no_pile_found"]
 
 
 def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = None, *,
@@ -96,24 +94,6 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     if progress is not None:
         progress(1.0)
     return result
-
-
-@dataclass(frozen=True, eq=False)
-class MeasuredPiles:
-    """The piles of a cloud measured and judged, before design, grouping and spacing
-    (:func:`measure_piles`); ``covs`` holds each pile's plan covariance by id."""
-
-    piles: tuple[PileFit, ...]
-    covs: dict[int, np.ndarray]
-    rejected: tuple[RejectedPile, ...]
-    warnings: tuple[str, ...]
-    cloud: PointCloud
-    segments: dict[int, Any] = field(default_factory=dict)
-    seabed: Any = None
-    cylinders: dict[int, Any] = field(default_factory=dict)
-    segmentation: dict[str, Any] = field(default_factory=dict)
-    iterations: tuple[dict[str, Any], ...] = ()
-    joint_radius: JointRadius | None = None
 
 
 def measure_piles(data: PointCloud | np.ndarray, opts: PileOptions,
@@ -248,7 +228,8 @@ def _measure_points(cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: 
             segs, seg_info, fits, iterations, unmeasured = measured
         fits = {pid: with_radius_sigma(m, radius_sigma) for pid, m in fits.items()}
         piles = tuple(replace(assess_pile(pid, fits[pid], o), sources=sources(
-            eidx[labels == pid], cloud.fields, files)) for pid in sorted(fits))
+            eidx[labels == pid], cloud.fields, files), top_lines=top_lines(
+            segs[pid], fits[pid], radius=o.radius, threshold=o.threshold)) for pid in sorted(fits))
         return _Judged(segs, seg_info, fits, iterations, unmeasured, *_standing(piles, seabed, o))
 
     j, joint = _with_joint_radius(judged, judged(opts), opts, warnings)
@@ -322,53 +303,6 @@ class _Judged(NamedTuple):
     piles: tuple[PileFit, ...]
     kept: dict[int, int]
     rejected: list[RejectedPile]
-
-
-def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: PileOptions, *,
-                 design: Design | None, parameters: dict[str, Any], warnings: list[str],
-                 rejected: list[RejectedPile], measured: MeasuredPiles | None = None) -> PileResult:
-    """The last stages of :func:`locate_piles`, once every pile of a survey is measured:
-    matched to the design, grouped into jackets, every spacing and frame; on a tiled
-    survey, after the tiles' piles are merged.
-
-    Parameters
-    ----------
-    piles : sequence of PileFit
-        Numbered from 1.
-    covs : dict
-        Plan covariance of each pile by id.
-    opts : PileOptions
-    design : Design or None
-    parameters : dict
-        What the result records.
-    warnings : list of str
-    rejected : list of dict
-    measured : MeasuredPiles, optional
-        The segments, seabed and cylinders, for figures (a whole-cloud run).
-    """
-    piles_t, remap, warn = apply_design(tuple(piles), design)
-    piles_t = group_piles(piles_t, design, mode=opts.groups)
-    covs = {remap[k]: v for k, v in covs.items()}
-    pairs = spacings(piles_t, covs, design, opts.tolerance, all_pairs=opts.all_pairs,
-                     method="centre" if opts.method == "centre" else "intersection")
-    frames = fit_frames(piles_t, covs, design, tolerance=opts.frame_tolerance)
-    others: tuple[PileFit, ...] = ()
-    other_pairs: tuple[Spacing, ...] = ()
-    if opts.method == "both":
-        others, alt_covs, piles_t = other_method_piles(piles_t, opts.radius)
-        other_pairs = spacings(others, alt_covs, design, opts.tolerance, method="centre",
-                               all_pairs=opts.all_pairs)
-    m = measured
-    seg_info = m.segmentation if m is not None else {"intensity_threshold": {}, "piles": {}}
-    return PileResult(piles_t, pairs, tuple(m.iterations if m else ()), parameters, tuple(warnings + warn),
-                      {remap[k]: v for k, v in m.segments.items()} if m else {},
-                      m.seabed if m else None,
-                      {remap[k]: v for k, v in m.cylinders.items()} if m else {},
-                      other_pairs, others,
-                      {"intensity_threshold": {str(remap[k]): v
-                                               for k, v in seg_info["intensity_threshold"].items()},
-                       "piles": {str(remap[k]): v for k, v in seg_info["piles"].items()}},
-                      frames, tuple(rejected))
 
 
 def _standing(piles: tuple[PileFit, ...], seabed: Any, opts: PileOptions

@@ -12,6 +12,19 @@ import numpy as np
 from .gis import crs_label, crs_name, crs_of
 from .html import html_page, html_table, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
+from .pile_tables import (
+    LEVEL_COLS,
+    PILE_COLS,
+    PILE_HEAD,
+    SPACING_COLS,
+    SPACING_HEAD,
+    frame_section,
+    level_section,
+    pile_row,
+    pile_verdicts,
+    spacing_row,
+    spacing_table,
+)
 from .writers import Outputs, write_outputs
 
 __all__ = ["pile_figures", "spacing_table", "pile_outputs", "write_pile_outputs", "pile_verdicts"]
@@ -161,126 +174,10 @@ def _convergence(result: Any, path: Path) -> bytes:
     return save_figure(fig, path)
 
 
-_PILE_COLS = ["id", "group", "x", "y", "z", "radius", "tilt_deg", "tilt_azimuth_deg", "tilt_held", "method",
-              "n_top", "n_side", "side_coverage_deg", "rms", "sigma_xy", "flags"]
-
-
-_SPACING_COLS = ["group", "a", "b", "distance", "sigma", "low_95", "high_95", "design", "deviation",
-                 "verdict", "pass", "method"]
-
-
-_FRAME_COLS = ["id", "dx", "dy", "miss", "sigma", "miss_95", "verdict"]
-
-
-#: Table columns and their headers with units (values rounded to what they mean).
-_SPACING_HEAD = {"pair": "pair", "distance": "measured (m)", "design": "design (m)",
-                 "deviation": "deviation (mm)", "sigma": "1σ (mm)", "interval": "95 % interval (mm)",
-                 "verdict": "at 95 %"}
-_PILE_HEAD = {"id": "pile", "group": "jacket", "x": "easting (m)", "y": "northing (m)", "z": "top (m)",
-              "radius": "radius (m)", "tilt": "tilt (°)", "toward": "toward (°)", "method": "method",
-              "n_top": "top points", "n_side": "side points", "arc": "side arc (°)", "rms": "rms (mm)",
-              "sigma": "1σ plan (mm)", "flags": "flags"}
-_FRAME_HEAD = {"id": "pile", "dx": "east miss (mm)", "dy": "north miss (mm)", "miss": "miss (mm)",
-               "sigma": "1σ (mm)", "miss_95": "miss at 95 % (mm)", "verdict": "at 95 %"}
-
-
-def _spacing_row(s: Any) -> dict[str, Any]:
-    dev = None if s.deviation is None else 1000 * s.deviation
-    return {"pair": f"{s.a}–{s.b}", "distance": f"{s.distance:.3f}",
-            "design": "" if s.design is None else f"{s.design:.3f}",
-            "deviation": "" if dev is None else f"{dev:+.1f}", "sigma": f"{1000 * s.sigma:.1f}",
-            "interval": f"±{1960 * s.sigma:.1f}" if dev is None
-            else f"{dev - 1960 * s.sigma:+.1f} … {dev + 1960 * s.sigma:+.1f}",
-            "verdict": s.verdict or ""}
-
-
-def _pile_row(p: Any) -> dict[str, Any]:
-    return {"id": p.id, "group": p.group, "x": f"{p.x:.3f}", "y": f"{p.y:.3f}", "z": f"{p.z:.3f}",
-            "radius": f"{p.radius:.3f}",
-            "tilt": "" if p.tilt_deg is None else "plumb (held)" if p.tilt_held else f"{p.tilt_deg:.1f}",
-            "toward": "" if p.tilt_azimuth_deg is None or p.tilt_held else f"{p.tilt_azimuth_deg:.0f}",
-            "method": p.method,
-            "n_top": p.n_top, "n_side": p.n_side, "arc": f"{p.side_coverage_deg:.0f}",
-            "rms": f"{1000 * p.rms:.1f}", "sigma": f"{1000 * p.sigma_xy:.1f}", "flags": "; ".join(p.flags)}
-
-
-def pile_verdicts(result: Any) -> list[tuple[str, str]]:
-    """The report's first lines: per jacket, whether its frame fits and how many spacings
-    pass at 95 %; each flagged pile; or, without a design, what was located.
-
-    Parameters
-    ----------
-    result : PileResult
-
-    Returns
-    -------
-    list of (text, level)
-        ``level`` is ``pass``, ``fail``, ``undecided`` or ``info``.
-    """
-    lines: list[tuple[str, str]] = []
-    frames = {f.group: f for f in result.frames}
-    for g in sorted({s.group for s in result.spacings if s.group}):
-        sp = [s for s in result.spacings if s.group == g and s.verdict is not None]
-        if not sp and g not in frames:
-            continue
-        verdicts = [s.verdict for s in sp] + ([frames[g].verdict] if g in frames else [])
-        level = "fail" if "fail" in verdicts else "undecided" if "undecided" in verdicts else "pass"
-        said = {"pass": "frame fits", "fail": "frame FAILS", "undecided": "frame fit undecided"}
-        head = f"Jacket {g}: " + (said[frames[g].verdict] + ", " if g in frames else "")
-        fails = sum(s.verdict == "fail" for s in sp)
-        open_ = sum(s.verdict == "undecided" for s in sp)
-        text = head + f"{sum(s.verdict == 'pass' for s in sp)} of {len(sp)} spacings pass at 95 %"
-        text += (f", {fails} fail" if fails else "") + (f", {open_} undecided" if open_ else "")
-        lines.append((text, level))
-    if not lines:
-        n_groups = len({p.group for p in result.piles})
-        lines.append((f"{len(result.piles)} piles located in {n_groups} jacket(s), {len(result.spacings)} "
-                      "spacings; no design to compare with", "info"))
-    for p in result.piles:
-        if p.flags:
-            lines.append((f"Pile {p.id}: {p.flags[0]}", "undecided"))
-    return lines
-
-
-def spacing_table(result: Any, truth: Mapping[tuple[int, int], float] | None = None) -> str:
-    """The spacing table as plain text (what ``mbinspect piles`` prints).
-
-    With both centre methods, each method's spacings, marked by a ``method`` column.
-    """
-    both = bool(result.other_spacings)
-    head = (f"{'jacket':>6} {'pair':>6} {'distance m':>11} {'1-sigma mm':>10} {'design m':>9} {'dev cm':>7} "
-            f"{'at 95 %':>9}")
-    if both:
-        head += f" {'method':>12}"
-    if truth:
-        head += f" {'error vs truth mm':>17}"
-    lines = [head]
-    for s in tuple(result.spacings) + tuple(result.other_spacings):
-        verdict = {"fail": "FAIL", "undecided": "undecided"}.get(s.verdict or "", s.verdict or "")
-        row = (f"{s.group or '-':>6} {s.a:>3}-{s.b:<2} {s.distance:>11.4f} {1000 * s.sigma:>10.1f} "
-               f"{'' if s.design is None else f'{s.design:.3f}':>9} "
-               f"{'' if s.deviation is None else f'{100 * s.deviation:+.1f}':>7} "
-               f"{verdict:>9}")
-        if both:
-            row += f" {s.method:>12}"
-        if truth:
-            t = truth.get((s.a, s.b))
-            row += f" {'' if t is None else f'{1000 * (s.distance - t):+.1f}':>17}"
-        lines.append(row)
-    for f in getattr(result, "frames", ()):
-        worst = max(f.residuals, key=lambda q: q["miss_95"])
-        said = {"pass": "frame fits", "fail": "frame FAILS"}.get(f.verdict, "undecided")
-        lines.append(f"jacket {f.group}: design frame fitted (rotation {f.rotation_deg:+.3f} deg, shift "
-                     f"{f.shift_x:+.3f}, {f.shift_y:+.3f} m); largest miss {1000 * worst['miss']:.0f} mm "
-                     f"(pile {worst['id']}, {1000 * worst['miss_95']:.0f} mm at 95 %): {said} "
-                     f"(tolerance {1000 * f.tolerance:.0f} mm)")
-    return "\n".join(lines)
-
-
 def pile_outputs(result: Any, points: np.ndarray, *, title: str = "Pile positions and spacings",
                  truth: Mapping[str, Any] | None = None) -> Outputs:
     """What the writers write of a pile result: ``piles.json``, ``piles.csv``,
-    ``spacings.csv``, the GeoJSON, the figures and ``report.html``.
+    ``spacings.csv``, ``levels.csv``, the GeoJSON, the figures and ``report.html``.
 
     Parameters
     ----------
@@ -299,9 +196,10 @@ def pile_outputs(result: Any, points: np.ndarray, *, title: str = "Pile position
     # with both methods, both methods' piles: one row per pile and method
     rows = d["piles"] + d["other_piles"]
     features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [p["x"], p["y"]]},
-                 "properties": {c: p.get(c) for c in _PILE_COLS if c != "flags"}
+                 "properties": {c: p.get(c) for c in PILE_COLS if c != "flags"}
                  | {"flags": "; ".join(p.get("flags", []))}} for p in rows]
-    tables = (("piles.csv", rows, _PILE_COLS), ("spacings.csv", d["spacings"], _SPACING_COLS))
+    tables = (("piles.csv", rows, PILE_COLS), ("spacings.csv", d["spacings"], SPACING_COLS),
+              ("levels.csv", d["levels"], LEVEL_COLS))
     return Outputs("piles", d, tables, features, crs_of(result),
                    lambda out: pile_figures(result, points, out), _figure_file,
                    lambda images: html_page(title, _page(result, d, images, truth), images))
@@ -346,16 +244,17 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes],
                                                       for w in result.warnings) + "</ul>"))
     sections.append(("Coordinates", f"<p>{html.escape(crs_label(result))}</p>"))
     for g in sorted({s.group for s in result.spacings}):
-        rows = [_spacing_row(s) for s in result.spacings if s.group == g]
+        rows = [spacing_row(s) for s in result.spacings if s.group == g]
         heading = f"Jacket {g}: spacings" if g else "Spacings between jackets"
-        sections.append((heading, html_table(rows, list(_SPACING_HEAD), list(_SPACING_HEAD.values()))))
-    sections += [_frame_section(f) for f in result.frames]
-    sections.append(("Piles (top centre)", html_table([_pile_row(q) for q in result.piles], list(_PILE_HEAD),
-                                                      list(_PILE_HEAD.values()))))
+        sections.append((heading, html_table(rows, list(SPACING_HEAD), list(SPACING_HEAD.values()))))
+    sections += [frame_section(f) for f in result.frames]
+    sections += [level_section(result, g) for g in sorted({lv.group for lv in result.levels})]
+    sections.append(("Piles (top centre)", html_table([pile_row(q) for q in result.piles], list(PILE_HEAD),
+                                                      list(PILE_HEAD.values()))))
     if result.other_piles:
         sections.append(("Piles by the centre method (top centre)",
-                         html_table([_pile_row(q) for q in result.other_piles], list(_PILE_HEAD),
-                                    list(_PILE_HEAD.values()))))
+                         html_table([pile_row(q) for q in result.other_piles], list(PILE_HEAD),
+                                    list(PILE_HEAD.values()))))
     if truth is not None:
         tp = {(s["a"], s["b"]): s["distance"] for s in truth.get("spacings", [])}
         sections.append(("Errors against simulator truth",
@@ -370,14 +269,3 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes],
     sections.append(("Input and software", provenance_table(d["parameters"])))
     sections.append(("Parameters", parameter_table(d["parameters"])))
     return sections
-
-
-def _frame_section(f: Any) -> tuple[str, str]:
-    """A jacket's design frame fit: its heading and table."""
-    rows = [{"id": q["id"], "dx": f"{1000 * q['dx']:+.0f}", "dy": f"{1000 * q['dy']:+.0f}",
-             "miss": f"{1000 * q['miss']:.0f}", "sigma": f"{1000 * q['sigma']:.1f}",
-             "miss_95": f"{1000 * q['miss_95']:.0f}", "verdict": q["verdict"]} for q in f.residuals]
-    return (f"Jacket {f.group}: design frame fit ({f.verdict} at 95 %, tolerance "
-            f"{1000 * f.tolerance:.0f} mm; rotation {f.rotation_deg:+.3f}°, shift "
-            f"{f.shift_x:+.3f} m east, {f.shift_y:+.3f} m north)",
-            html_table(rows, list(_FRAME_HEAD), list(_FRAME_HEAD.values())))

@@ -60,7 +60,7 @@ def build_jacket(opt: JacketOptions, rng: np.random.Generator, sonar: Sonar
         lines += [Line(v, ping_spacing=opt.ping_spacing) for v in catalogue[name]]
     scene = Scene(seabed, tuple(piles), boulders=tuple(boulders),
                   origin=(opt.origin_x, opt.origin_y))
-    extra = {"design": [{"id": i + 1, "x": dx + opt.origin_x, "y": dy + opt.origin_y}
+    extra = {"design": [{"id": i + 1, "x": dx + opt.origin_x, "y": dy + opt.origin_y, "top": opt.top}
                         for i, (dx, dy) in enumerate(design)]}
     return scene, Survey(tuple(lines), sonar), extra
 
@@ -87,7 +87,7 @@ def build_wharf(opt: WharfOptions, rng: np.random.Generator, sonar: Sonar
             piles.append(Pile(cx + dx + off[0], dy + off[1], opt.top + rng.normal(0, opt.top_scatter),
                               opt.radius, tilt_deg=tilt, tilt_bearing_deg=outward, bottom_z=opt.seabed - 15))
             design.append({"group": g + 1, "id": len(design) + 1, "x": cx + dx + opt.origin_x,
-                           "y": dy + opt.origin_y})
+                           "y": dy + opt.origin_y, "top": opt.top})
     e, o = half + 25.0, h + opt.line_offset
     lines = [Line(((-e, -o), (e, -o)), ping_spacing=opt.ping_spacing),
              Line(((e, o), (-e, o)), ping_spacing=opt.ping_spacing),
