@@ -17,7 +17,7 @@ LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (0, ("errors", "version", "checks", "outputs", "options", "grid", "strays", "geometry", "cloud",
          "interrupt", "timing", "neighbours", "cellsort")),
     (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
-         "pipeline", "beam", "pings")),
+         "pipeline", "beam", "pings", "datum")),
     (2, ("seabed", "filters", "segment")),
     (3, ("piles", "reefs", "simulate", "report")),
     (4, ("pipelines", "inject", "results")),

@@ -32,6 +32,7 @@ import numpy as np
 from .checks import EARTH_BOUND_TEXT, beyond_the_earth
 from .cloud import PointCloud, crs_name, pipeline_input
 from .crs import to_metres
+from .datum import VerticalReference, vertical_reference
 from .describe import CloudSummary, describe
 from .errors import FileAccessError, InputError, InputWarning, MBInspectError, ParameterError
 from .formats import FORMAT_NAMES, FORMATS, SONAR_FORMATS, ReadRequest, format_from_path
@@ -40,6 +41,7 @@ from .outputs import atomic_path
 
 __all__ = [
     "PointCloud",
+    "on_reference",
     "FORMATS",
     "FORMAT_NAMES",
     "SONAR_FORMATS",
@@ -113,6 +115,8 @@ def read(
     keep_rejected: bool = False,
     decimal: str | None = None,
     z_up: bool = False,
+    tide: str | os.PathLike[str] | None = None,
+    datum_offset: float | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> PointCloud:
     """Read a point cloud file.
@@ -148,12 +152,19 @@ def read(
         file whose z is mostly positive under a header that does not say which (``z``, or
         none) is read as given but marked doubtful (``meta["z_doubt"]``); the pipelines
         refuse such a cloud.
+    tide : path-like, optional
+        A tide CSV (``time,height``: the water level above chart datum by UTC time): each
+        sounding's height gains the level at its time (:mod:`mbinspect.datum`); refused when
+        the soundings carry no time or the series does not cover them.
+    datum_offset : float, optional
+        Metres added to every height (after the tide).
     progress : callable, optional
         ASCII only: called with the fraction of the file parsed.
 
     Returns
     -------
     PointCloud
+        ``meta["vertical_reference"]`` says what its heights are.
 
     Raises
     ------
@@ -162,7 +173,28 @@ def read(
     InputError
         Malformed content; the message names the line and column.
     """
-    p = Path(path)
+    ref = vertical_reference(None if tide is None else str(tide), datum_offset)
+    cloud = _read_file(Path(path), format=format, columns=columns, depth_positive=depth_positive,
+                       delimiter=delimiter, crs=crs, keep_rejected=keep_rejected, decimal=decimal, z_up=z_up,
+                       progress=progress)
+    return on_reference(cloud, ref, str(path))
+
+
+def on_reference(cloud: PointCloud, ref: VerticalReference, where: str) -> PointCloud:
+    """The cloud with its heights on ``ref`` (:mod:`mbinspect.datum`), saying so in its meta."""
+    meta = {**cloud.meta, "vertical_reference": ref.to_dict()}
+    if not ref.stated:
+        return replace(cloud, meta=meta)
+    z = ref.apply(cloud.xyz[:, 2], dict(cloud.fields), where)
+    xyz = cloud.xyz.copy()
+    xyz[:, 2] = z
+    return replace(cloud, xyz=xyz, meta=meta)
+
+
+def _read_file(p: Path, *, format: str | None, columns: str | Sequence[str] | None, depth_positive: bool,
+               delimiter: str | None, crs: str | None, keep_rejected: bool, decimal: str | None, z_up: bool,
+               progress: Callable[[float], None] | None) -> PointCloud:
+    """:func:`read` before the vertical reference."""
     if not p.exists():
         raise FileAccessError(f"{p}: no such file")
     if p.is_dir():

@@ -42,6 +42,12 @@ def add_input(p: argparse.ArgumentParser, many: bool = False) -> None:
                    help="z in the file is elevation, positive up (settles a mostly positive z)")
     g.add_argument("--keep-rejected", action="store_true",
                    help="sonar files: keep the soundings the sonar or the file rejected (field 'valid')")
+    g.add_argument("--tide", metavar="CSV",
+                   help="a tide series (time,height: UTC, the water level in m above chart datum), added to "
+                        "each sounding's height at its time; refused when the soundings carry no time or "
+                        "the series does not cover them")
+    g.add_argument("--datum-offset", metavar="M", type=float,
+                   help="metres added to every height (after the tide): the separation to the datum wanted")
 
 
 def check_input(args: argparse.Namespace) -> None:
@@ -74,6 +80,8 @@ def file_record(path: str) -> dict[str, Any]:
 def provenance(result: Any, args: argparse.Namespace, argv: Sequence[str], **others: str | None) -> Any:
     """The result with the input files, the reading options and the command line added to
     its parameters."""
+    from ..datum import vertical_reference
+
     params = dict(result.parameters)
     inputs = args.files if hasattr(args, "files") else [Path(args.input)]
     if len(inputs) == 1:
@@ -81,6 +89,7 @@ def provenance(result: Any, args: argparse.Namespace, argv: Sequence[str], **oth
     else:
         params["input"] = {**params.get("input", {}), "files": file_records(inputs)}
     params["reading"] = read_options(args)
+    params["vertical_reference"] = vertical_reference(args.tide, args.datum_offset).to_dict()
     for name, path in others.items():
         if path is not None:
             params[name] = file_record(path) if Path(path).is_file() else path

@@ -40,7 +40,9 @@ def top_lines(seg: PileSegment, fit: PileMeasure, *, radius: float, threshold: f
     the centre's elevation ``fit.z`` should move by. Soundings within :data:`EDGE_SHARE` of
     the radius from the axis, within 3 robust sigmas (at least ``threshold / 2``) of the
     plane; ``sigma`` is the mean's 1-sigma with the pings as clusters (a ping's soundings
-    share its heave and roll).
+    share its heave and roll) or the beams (:data:`BEAM_BIN_DEG`; a beam keeps its bias from
+    ping to ping) or patches of the top (:data:`PATCH_SHARE`; errors that follow the place),
+    whichever is largest.
 
     Parameters
     ----------
@@ -90,26 +92,42 @@ def top_lines(seg: PileSegment, fit: PileMeasure, *, radius: float, threshold: f
     keep = np.flatnonzero(use)[np.abs(h - med) <= band]
     lines = np.zeros(len(pts), np.int64) if seg.line is None else np.asarray(seg.line)[seg.top]
     pings = np.arange(len(pts)) if seg.ping is None else np.asarray(seg.ping)[seg.top]
+    beams = None if seg.beam_angle is None else np.round(np.asarray(seg.beam_angle)[seg.top] / BEAM_BIN_DEG)
+    # patches of the top: errors that follow the place (the seabed texture an injected top
+    # carries, a slow roll or refraction) are shared by neighbours whatever ping or beam
+    cell = PATCH_SHARE * r
+    cells = np.floor((pts[:, 0] - fit.x) / cell) * 1e4 + np.floor((pts[:, 1] - fit.y) / cell)
     out = []
     for ln in np.unique(lines[keep]):
         rows = keep[lines[keep] == ln]
         if len(rows) < 2:
             continue
-        out.append({"line": int(ln), "offset": float(height[rows].mean()), "n": len(rows),
-                    "sigma": _cluster_sigma(height[rows], pings[rows])})
+        v = height[rows]
+        var = max(_cluster_var(v, pings[rows]), _cluster_var(v, beams[rows]) if beams is not None else 0.0,
+                  _cluster_var(v, cells[rows]))
+        out.append({"line": int(ln), "offset": float(v.mean()), "n": len(rows), "sigma": math.sqrt(var)})
     return tuple(out)
 
 
-def _cluster_sigma(values: np.ndarray, groups: np.ndarray) -> float:
-    """The 1-sigma of the mean of ``values`` with ``groups`` as clusters (the soundings'
-    own spread over the root of their count when fewer than three clusters)."""
+#: The side of the patches of a top (a share of the radius) whose soundings may share an error.
+PATCH_SHARE = 0.3
+
+#: The beam angles (deg) that count as one beam for the errors a beam keeps from ping to
+#: ping (its calibration, its refraction): a top of a metre at 20 m spans 3 such bins.
+BEAM_BIN_DEG = 1.0
+
+
+def _cluster_var(values: np.ndarray, groups: np.ndarray) -> float:
+    """The variance of the mean of ``values`` with ``groups`` as clusters (the soundings'
+    own spread over their count when there are fewer than three clusters)."""
     resid = values - values.mean()
+    plain = float(values.var(ddof=1) / len(values))
     _, inv = np.unique(groups, return_inverse=True)
     g = int(inv.max()) + 1
     if g < 3:
-        return float(values.std(ddof=1) / math.sqrt(len(values)))
+        return plain
     sums = np.bincount(inv, weights=resid, minlength=g)
-    return float(math.sqrt(g / (g - 1) * float(np.sum(sums**2))) / len(values))
+    return max(plain, g / (g - 1) * float(np.sum(sums**2)) / len(values) ** 2)
 
 
 @dataclass(frozen=True)
@@ -243,10 +261,13 @@ def _fit_component(piles: list[PileFit]) -> tuple[dict[int, float], dict[int, fl
     else:
         datum = math.nan
         notes.append(f"pile{'s' if n_p > 1 else ''} {', '.join(map(str, ids))}: top sounded by one line, "
-                     "whose vertical offset the data cannot show; the level's 1-sigma is unknown")
+                     "whose vertical offset and biases between beams the data cannot show; the levels' "
+                     "1-sigmas, and their differences', are unknown")
     top = {pid: piles[i].z + float(beta[i]) for i, pid in enumerate(ids)}
     sig = {pid: math.sqrt(float(cov[i, i]) + datum) for i, pid in enumerate(ids)}
-    rel = {(a, b): math.sqrt(max(float(cov[i, i] + cov[k, k] - 2 * cov[i, k]), 0.0))
+    # one line alone cannot show the biases it keeps between beam angles and places (a
+    # smile, refraction, a patch of seabed texture): its tops' differences get no sigma
+    rel = {(a, b): math.sqrt(max(float(cov[i, i] + cov[k, k] - 2 * cov[i, k]), 0.0)) if n_l > 1 else math.nan
            for i, a in enumerate(ids) for k, b in enumerate(ids) if i != k}
     return top, sig, rel, dict(zip(lines, map(float, delta), strict=True)), notes
 

@@ -25,6 +25,15 @@ def crs_label(result: Any) -> str:
     return name or "the input's own coordinates (no CRS given: give --crs to place them on a map)"
 
 
+def heights_label(result: Any) -> str:
+    """A line saying what a result's heights are (its ``parameters["vertical_reference"]``,
+    as ``--tide`` and ``--datum-offset`` stated it), or that they are as the files gave them."""
+    from ..datum import as_given
+
+    ref = result.parameters.get("vertical_reference") if isinstance(result.parameters, dict) else None
+    return str(ref["text"]) if ref else as_given().describe()
+
+
 def lonlat_transform(crs: str | None) -> Any:
     """``f(x, y) -> (lon, lat)`` from ``crs`` to WGS 84, or None without a CRS.
 

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .gis import crs_label, crs_name, crs_of
+from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
 from .pile_tables import (
@@ -242,7 +242,8 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes],
     if result.warnings:
         sections.append(("Warnings", "<ul>" + "".join(f"<li class='warn'>{html.escape(w)}</li>"
                                                       for w in result.warnings) + "</ul>"))
-    sections.append(("Coordinates", f"<p>{html.escape(crs_label(result))}</p>"))
+    sections.append(("Coordinates", f"<p>{html.escape(crs_label(result))}</p>"
+                                    f"<p>Heights: {html.escape(heights_label(result))}</p>"))
     for g in sorted({s.group for s in result.spacings}):
         rows = [spacing_row(s) for s in result.spacings if s.group == g]
         heading = f"Jacket {g}: spacings" if g else "Spacings between jackets"

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..grid import bounds as plan_bounds
-from .gis import crs_label, crs_name, crs_of
+from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
 from .writers import Outputs, write_outputs
@@ -276,6 +276,7 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
                                                       for w in result.warnings) + "</ul>"))
     summary: list[dict[str, Any]] = [
         {"item": "coordinates", "value": crs_label(result)},
+        {"item": "heights", "value": heights_label(result)},
         {"item": "reefs", "value": len(d["reefs"])},
         {"item": "groups", "value": len(d["groups"])},
         {"item": "other objects (smaller than min_area)", "value": len(d["others"])},

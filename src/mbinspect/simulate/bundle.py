@@ -28,7 +28,8 @@ def write_bundle(folder: Path, truth: Mapping[str, Any], *, cloud: PointCloud | 
     folder : Path
         The (staging) output folder.
     truth : mapping
-        ``truth.json``; its ``design`` rows (piles) become ``design.csv``.
+        ``truth.json``; its ``design`` rows (piles) become ``design.csv``, its ``tide``
+        rows (a simulated tide gauge) ``tide.csv``.
     cloud : PointCloud, optional
         The soundings, written as ``cloud_name`` (its extension picks the format).
     cloud_name : str
@@ -63,6 +64,9 @@ def write_bundle(folder: Path, truth: Mapping[str, Any], *, cloud: PointCloud | 
         cols = [c for c in ("group", "id", "x", "y", "top") if c in design[0]]
         write_table(list(design), folder / "design.csv", cols)
         written.append("design.csv")
+    if truth.get("tide"):
+        write_table(list(truth["tide"]), folder / "tide.csv", ["time", "height"])
+        written.append("tide.csv")
     if reference:
         write_table([{"x": x, "y": y, "id": i} for x, y, i in reference], folder / "reference.csv",
                     ["x", "y", "id"])

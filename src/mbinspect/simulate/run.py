@@ -21,7 +21,7 @@ from .presets import (
 )
 from .scene import LABELS, Scene
 from .sonar import DEFAULT_SONAR, Sonar, Survey, named_sonar
-from .survey import survey
+from .survey import line_times, survey
 from .truth import reef_reference_rows, scene_truth
 
 
@@ -103,7 +103,24 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
                                   progress=progress)
     truth = scene_truth(preset, seed, setup.opt, setup.sonar, setup.scene, labels, setup.extra)
     truth["sonar"] = {"name": setup.sonar_name, **truth["sonar"]}
+    if (setup.sonar.tide_range or setup.sonar.tide_mean) and len(cloud):
+        truth["tide"] = tide_rows(setup.sonar, cloud.fields["time"])
     return Simulation(cloud, labels, ident, truth, setup.scene, setup.plan)
+
+
+#: The step (s) of a simulated tide series, and how far it reaches beyond the survey.
+TIDE_STEP_S, TIDE_MARGIN_S = 600.0, 3600.0
+
+
+def tide_rows(sonar: Sonar, times: np.ndarray) -> list[dict[str, Any]]:
+    """The sonar's tide as a gauge would record it: ``time`` (UTC, ISO 8601) and ``height``
+    (m above chart datum) every :data:`TIDE_STEP_S` over the survey and an hour each side."""
+    import datetime as dt
+
+    t0 = math.floor((float(times.min()) - TIDE_MARGIN_S) / TIDE_STEP_S) * TIDE_STEP_S
+    t = np.arange(t0, float(times.max()) + TIDE_MARGIN_S + TIDE_STEP_S, TIDE_STEP_S)
+    return [{"time": dt.datetime.fromtimestamp(float(v), dt.UTC).isoformat().replace("+00:00", "Z"),
+             "height": round(float(h), 4)} for v, h in zip(t, sonar.tide(t), strict=True)]
 
 
 @dataclass(frozen=True)
@@ -208,6 +225,8 @@ def simulate_lines(preset: str, out: str | Path, *, seed: int = 0, suffix: str =
     truth = scene_truth(preset, seed, setup.opt, setup.sonar, setup.scene, np.zeros(0, np.int8), setup.extra)
     truth.update(sonar={"name": setup.sonar_name, **truth["sonar"]}, counts=counts, n_soundings=total,
                  files=files)
+    if setup.sonar.tide_range or setup.sonar.tide_mean:
+        truth["tide"] = tide_rows(setup.sonar, np.array(line_times(setup.plan)).ravel())
     write_json(truth, folder / "truth.json")
     return truth
 
@@ -234,6 +253,8 @@ def _line_job(job: tuple[str, int, tuple[tuple[str, Any], ...], int, str, str], 
         math.radians(min(sonar.swath_deg, 170.0) / 2)) + 10.0
     v = np.asarray(line.vertices, np.float64)
     box = (v[:, 0].min() - reach, v[:, 0].max() + reach, v[:, 1].min() - reach, v[:, 1].max() + reach)
+    # the line sailed when it would be in the whole survey (its tide, its time stamps)
+    sonar = dataclasses.replace(sonar, start_time=line_times(setup.plan)[k][0])
     cloud, labels, _ = survey(_near(setup.scene, box), Survey((line,), sonar),
                               seed=int(line_seed.generate_state(1)[0]))
     fields = {**cloud.fields, "line": np.full(len(cloud), k + 1, np.int32), "label": labels.astype(np.int32)}

@@ -85,6 +85,20 @@ class Sonar(Beam):
                                      help="per-line backscatter gain offset (uncalibrated levels)")
     bs_angle_db: float = option(0.0, unit="dB", check="non_negative",
                                 help="fall of the stored backscatter from nadir to the outermost beam")
+    tide_range: float = option(0.0, unit="m", check="non_negative",
+                               help="tide range, low to high water (a semi-diurnal cosine); the soundings' "
+                                    "heights are from the water level at each ping, as KMALL and .all give "
+                                    "them")
+    tide_mean: float = option(0.0, unit="m", check="finite", help="mean water level above chart datum")
+    start_time: float = option(1780300800.0, unit="s", check="finite",
+                               help="UTC time of the first ping, seconds since 1970 (2026-06-01T08:00Z)")
+    turn_s: float = option(120.0, unit="s", check="non_negative", help="time between two lines (the turn)")
+
+    def tide(self, utc: np.ndarray) -> np.ndarray:
+        """The water level (m above chart datum) at UTC times (s since 1970): a cosine of
+        12.42 h, high water at ``start_time``."""
+        return self.tide_mean + self.tide_range / 2 * np.cos(2 * np.pi * (np.asarray(utc) - self.start_time)
+                                                             / TIDE_PERIOD_S)
 
     def check_together(self) -> None:
         """A swath under 170 degrees."""
@@ -141,6 +155,9 @@ class Survey:
             pings += int(length / line.ping_spacing) + 1
         return pings * self.sonar.n_beams
 
+
+#: The simulated tide's period (s): the principal lunar semi-diurnal, 12.42 h.
+TIDE_PERIOD_S = 12.42 * 3600.0
 
 #: Named sonars: the error model a simulation starts from (its fields stay overridable).
 #: ``shallow`` (the default) is calibrated against the real files of 4–58 m in

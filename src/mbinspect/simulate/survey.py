@@ -35,7 +35,8 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
     -------
     cloud : PointCloud
         World coordinates (``scene.origin`` added) with fields ``intensity``,
-        ``beam_angle`` (deg, + starboard), ``line`` (1-based) and ``ping``.
+        ``beam_angle`` (deg, + starboard), ``line`` (1-based), ``ping`` and ``time`` (UTC,
+        s since 1970); heights from the water level at each ping when the sonar has a tide.
     label : ndarray of int8, shape (N,)
         What each sounding hit (:data:`LABELS`).
     ident : ndarray of int32, shape (N,)
@@ -57,10 +58,12 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         parts.append(_sound(scene, sonar, track, err, beams, sl, rng, all_targets))
         if progress is not None:
             progress(sl.stop / n_ping)
-    xyz, intensity, angle, line, ping, label, ident = (np.concatenate(c) for c in zip(*parts, strict=True))
+    cols = (np.concatenate(c) for c in zip(*parts, strict=True))
+    xyz, intensity, angle, line, ping, label, ident, utc = cols
     xyz[:, 0] += scene.origin[0]
     xyz[:, 1] += scene.origin[1]
-    cloud = PointCloud(xyz, {"intensity": intensity, "beam_angle": angle, "line": line, "ping": ping})
+    cloud = PointCloud(xyz, {"intensity": intensity, "beam_angle": angle, "line": line, "ping": ping,
+                             "time": utc})
     return cloud, label, ident
 
 
@@ -76,23 +79,39 @@ class _Track:
     roll: np.ndarray
     pitch: np.ndarray
     heave: np.ndarray
+    utc: np.ndarray
+
+
+def line_times(plan: Survey) -> list[tuple[float, float]]:
+    """The UTC time (s since 1970) of each line's first and last ping: the lines sailed one
+    after another from the sonar's ``start_time``, a turn of ``turn_s`` between two."""
+    out, start = [], plan.sonar.start_time
+    for line in plan.lines:
+        _, _, s = line.pings()
+        end = start + (float(s[-1]) / line.speed if len(s) else 0.0)
+        out.append((start, end))
+        start = end + plan.sonar.turn_s
+    return out
 
 
 def _track(plan: Survey) -> _Track:
     sonar = plan.sonar
-    pos_l, head_l, dist_l, line_l = [], [], [], []
+    pos_l, head_l, dist_l, line_l, utc_l = [], [], [], [], []
+    start = sonar.start_time
     for k, line in enumerate(plan.lines):
         pos, head, s = line.pings()
         pos_l.append(pos)
         head_l.append(head)
         dist_l.append(s / line.speed)
         line_l.append(np.full(len(pos), k + 1, dtype=np.int32))
+        utc_l.append(start + dist_l[-1])  # the lines one after another, a turn between two
+        start = float(utc_l[-1][-1]) + sonar.turn_s if len(pos) else start
     time = np.concatenate(dist_l)
     roll = math.radians(sonar.roll_amplitude_deg) * np.sin(2 * np.pi * time / 7.0 + 0.3)
     pitch = math.radians(sonar.pitch_amplitude_deg) * np.sin(2 * np.pi * time / 5.0 + 1.1)
     heave = sonar.heave_amplitude * np.sin(2 * np.pi * time / 6.0)
     return _Track(np.concatenate(pos_l), np.concatenate(head_l), time, np.concatenate(line_l), roll, pitch,
-                  heave)
+                  heave, np.concatenate(utc_l))
 
 
 @dataclass(frozen=True)
@@ -173,10 +192,13 @@ def _sound(scene: Scene, sonar: Sonar, track: _Track, err: _Errors, beams: np.nd
     xyz = o + rng_meas[:, None] * d + (t * dang)[:, None] * dtheta + err.dpos[pi]
     xyz[:, 2] += err.line_dz[li]
     xyz, label, ident = _outliers(xyz, label, ident, o, d, t, sonar, rng)
+    if sonar.tide_range or sonar.tide_mean:  # heights from the water level at the ping, as sonars give them
+        xyz[:, 2] -= sonar.tide(track.utc[pi])
     bs = _backscatter(label, ident, scene, materials, cos_inc, beam, beams, li, err, sonar, rng)
     keep &= np.isfinite(t)
     return (xyz[keep], np.round(bs[keep] + 100.0, 1), np.round(np.degrees(beam[keep]), 3),
-            track.line_id[pi][keep], pi[keep].astype(np.int32) + 1, label[keep], ident[keep])
+            track.line_id[pi][keep], pi[keep].astype(np.int32) + 1, label[keep], ident[keep],
+            track.utc[pi][keep])
 
 
 def _through_beams(sonar: Sonar, near: list[Target], o: np.ndarray, d: np.ndarray, across: np.ndarray,

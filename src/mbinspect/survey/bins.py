@@ -15,10 +15,11 @@ import numpy as np
 
 from ..checks import EARTH_BOUND_TEXT, beyond_the_earth
 from ..cloud import PointCloud
+from ..datum import vertical_reference
 from ..errors import InputError
 from ..formats import format_of
 from ..grid import bounds, pack_cells, unpack_cells
-from ..io import in_metres, read
+from ..io import in_metres, on_reference, read
 from .inputs import SurveyCRS, conform
 
 __all__ = ["FileBins", "BinnedChunk", "bin_file", "block_counts", "STRAY_CELL", "ROW"]
@@ -77,8 +78,9 @@ def _chunks(path: Path, chunk: int, read_options: Mapping[str, Any], target: Sur
         with warnings.catch_warnings():
             if k:  # a conversion is said once per file, not once per chunk
                 warnings.simplefilter("ignore")
-            if row.chunks is not None:
-                cloud = in_metres(cloud, opts.get("crs"))
+            if row.chunks is not None:  # read() puts a whole file on its vertical reference
+                ref = vertical_reference(opts.get("tide"), opts.get("datum_offset"))
+                cloud = on_reference(in_metres(cloud, opts.get("crs")), ref, str(path))
             if target is not None:
                 cloud = conform(cloud, target.crs, target.first)
         far = beyond_the_earth(cloud.xyz)

@@ -23,7 +23,8 @@ __all__ = ["expand_inputs", "read_survey", "survey_lines", "survey_crs", "confor
            "READ_OPTIONS"]
 
 #: The keyword arguments of :func:`mbinspect.io.read` a survey passes to every file.
-READ_OPTIONS = ("format", "columns", "depth_positive", "delimiter", "crs", "keep_rejected", "decimal", "z_up")
+READ_OPTIONS = ("format", "columns", "depth_positive", "delimiter", "crs", "keep_rejected", "decimal", "z_up",
+                "tide", "datum_offset")
 
 _SUFFIXES = EXTENSIONS
 
