@@ -18,7 +18,7 @@ LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
          "interrupt", "timing", "neighbours", "cellsort")),
     (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
          "pipeline", "beam", "pings", "datum")),
-    (2, ("seabed", "filters", "segment")),
+    (2, ("seabed", "filters", "segment", "least_depth")),
     (3, ("piles", "reefs", "simulate", "report")),
     (4, ("pipelines", "inject", "results")),
     (5, ("survey",)),

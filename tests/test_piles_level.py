@@ -11,7 +11,8 @@ import pytest
 
 from mbinspect.errors import InputError
 from mbinspect.piles import PileFit, PileResult, locate_piles, read_design
-from mbinspect.piles.level import adjust_levels, leg_shims, pile_levels
+from mbinspect.piles.frame import leg_shims
+from mbinspect.piles.level import adjust_levels, pile_levels
 
 
 def _pile(pid: int, z: float, rows: list[tuple[int, float]], sigma: float = 0.003) -> PileFit:

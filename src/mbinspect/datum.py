@@ -138,22 +138,23 @@ class VerticalReference:
     ----------
     tide : str or None
         The tide CSV (:func:`read_tide`).
-    offset : float
-        Metres added to every height.
+    offset : float or None
+        Metres added to every height; given as 0, it states that the files' heights are
+        already on the datum wanted.
     """
 
     tide: str | None = None
-    offset: float = 0.0
+    offset: float | None = None
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.offset):
+        if self.offset is not None and not math.isfinite(self.offset):
             raise ParameterError(f"datum_offset: {self.offset!r}; expected a finite height in metres",
                                  option="datum_offset")
 
     @property
     def stated(self) -> bool:
         """Whether a reference was stated (a tide or an offset was given)."""
-        return self.tide is not None or self.offset != 0.0
+        return self.tide is not None or self.offset is not None
 
     def apply(self, z: np.ndarray, fields: dict[str, Any], where: str) -> np.ndarray:
         """The heights ``z`` on this reference (``fields["time"]`` gives each one's time).
@@ -163,7 +164,7 @@ class VerticalReference:
         InputError
             A tide with soundings that carry no time, or times it does not cover.
         """
-        out = np.asarray(z, np.float64) + self.offset
+        out = np.asarray(z, np.float64) + (self.offset or 0.0)
         if self.tide is not None:
             if "time" not in fields:
                 raise InputError(f"{where}: the soundings carry no time; the tide {self.tide} is applied by "
@@ -176,12 +177,14 @@ class VerticalReference:
         if not self.stated:
             return "heights " + AS_GIVEN
         parts = ["the files' heights"]
+        if self.tide is None and not self.offset:
+            return "chart datum: the files' heights, stated to be on it (--datum-offset 0)"
         if self.tide is not None:
             parts.append(f"the tide of {self.tide} (water level above chart datum, by each sounding's "
                          "UTC time)")
         if self.offset:
             parts.append(f"{self.offset:+.3f} m")
-        return ("chart datum: " if self.tide is not None else "heights: ") + " + ".join(parts)
+        return ("chart datum: " if self.tide is not None else "stated datum: ") + " + ".join(parts)
 
     def to_dict(self) -> dict[str, Any]:
         """What ``parameters["vertical_reference"]`` records."""
@@ -191,7 +194,7 @@ class VerticalReference:
 def vertical_reference(tide: str | Path | None = None, offset: float | None = None) -> VerticalReference:
     """The reference of ``--tide`` and ``--datum-offset``; the tide file is read (and checked)
     now."""
-    ref = VerticalReference(None if tide is None else str(tide), 0.0 if offset is None else float(offset))
+    ref = VerticalReference(None if tide is None else str(tide), None if offset is None else float(offset))
     if ref.tide is not None:
         read_tide(ref.tide)
     return ref

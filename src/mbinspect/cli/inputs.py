@@ -53,8 +53,15 @@ def add_input(p: argparse.ArgumentParser, many: bool = False) -> None:
 def check_input(args: argparse.Namespace) -> None:
     """The inputs expanded (several files, folders, globs) into ``args.files`` and the
     reading options checked on each, before any work (the files are read later)."""
+    from ..errors import ParameterError
     from ..io import check_read_options
 
+    need = getattr(args, "opt_min_clearance", None)
+    if need is not None and args.tide is None and args.datum_offset is None:
+        raise ParameterError(f"min_clearance: {need:g} m given without a vertical reference; "
+                             "expected --tide or --datum-offset (0 when the files' heights are already on "
+                             "chart datum): nothing is said of clearance without a stated datum",
+                             option="min_clearance")
     if isinstance(args.input, list):
         args.files = input_files(args)
         args.input = str(args.files[0]) if len(args.files) == 1 else args.input

@@ -9,9 +9,10 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .design import Design
+from .pairs import Level
 from .results import FrameFit, PileFit
 
-__all__ = ["fit_frames", "decide"]
+__all__ = ["fit_frames", "decide", "leg_shims"]
 
 #: Two-sided 95 % factor.
 Z95 = 1.96
@@ -129,3 +130,31 @@ def fit_frames(piles: Sequence[PileFit], covs: dict[int, np.ndarray], design: De
         out.append(FrameFit(g, math.degrees(angle), float(shift[0]), float(shift[1]), tuple(rows), tolerance,
                             overall))
     return tuple(out)
+
+
+def leg_shims(piles: Sequence[PileFit], levels: Sequence[Level]) -> dict[int, tuple[float, float]]:
+    """The packing (m) each pile needs under a level frame resting on its jacket's highest
+    sounded top, with its 1-sigma (from the pair's level difference; NaN where a top was
+    not sounded).
+
+    Examples
+    --------
+    >>> from mbinspect.piles.results import PileFit
+    >>> p = [PileFit(i, 0.0, 0.0, z, 0.75, None, None, "intersection", 50, 50, 360, 0.01, 0.002, top_z=z)
+    ...      for i, z in ((1, -16.0), (2, -16.03))]
+    >>> leg_shims(p, [Level(1, 1, 2, -0.03, 0.004)])[2]
+    (0.030000000000000249, 0.004)
+    """
+    by_pair = {(lv.a, lv.b): lv for lv in levels}
+    out: dict[int, tuple[float, float]] = {}
+    for g in sorted({p.group for p in piles}):
+        members = [p for p in piles if p.group == g and p.top_z is not None]
+        sounded = [p for p in members if not p.top_z_lower_bound] or members
+        if not sounded:
+            continue
+        high = max(sounded, key=lambda p: float(p.top_z))  # type: ignore[arg-type]
+        for p in members:
+            pair = by_pair.get((high.id, p.id)) or by_pair.get((p.id, high.id))
+            sigma = 0.0 if p.id == high.id else math.nan if pair is None or pair.lower_bound else pair.sigma
+            out[p.id] = (float(high.top_z) - float(p.top_z), sigma)  # type: ignore[arg-type]
+    return out

@@ -21,11 +21,12 @@ from typing import Any
 import numpy as np
 from scipy.stats import t as student_t
 
+from ..least_depth import LeastDepth, s44_order
 from .frame import decide
 from .pairs import Level
 from .results import PileFit, PileMeasure, PileSegment
 
-__all__ = ["Level", "Levels", "top_lines", "adjust_levels", "pile_levels", "leg_shims"]
+__all__ = ["Level", "Levels", "top_lines", "adjust_levels", "pile_levels", "pile_least_depth"]
 
 #: Top soundings within this share of the radius from the axis (the beams that straddle the
 #: edge read a blend of top and water).
@@ -293,7 +294,8 @@ def _interaction(x: np.ndarray, y: np.ndarray, v: np.ndarray, dof: int) -> float
     return hi
 
 
-def pile_levels(piles: Sequence[PileFit], tops: dict[int, float], *, tolerance: float
+def pile_levels(piles: Sequence[PileFit], tops: dict[int, float], *, tolerance: float,
+                min_clearance: float | None = None
                 ) -> tuple[tuple[PileFit, ...], tuple[Level, ...], tuple[str, ...]]:
     """Every pile given its fitted level (:func:`adjust_levels`), compared with its design
     top when known, and every pair within a jacket's level difference.
@@ -306,6 +308,8 @@ def pile_levels(piles: Sequence[PileFit], tops: dict[int, float], *, tolerance: 
         Pile id -> design top elevation (m), from the design's ``top`` column.
     tolerance : float
         How far a top (or a level difference) may miss the design (m), decided at 95 %.
+    min_clearance : float, optional
+        The least depth (m below the stated datum) each top must keep.
 
     Returns
     -------
@@ -318,7 +322,8 @@ def pile_levels(piles: Sequence[PileFit], tops: dict[int, float], *, tolerance: 
         design = tops.get(p.id)
         dev = None if design is None else z - design
         verdict = None if dev is None else _verdict(dev, s, tolerance, p.id in lv.lower_bound)
-        out.append(_with_level(p, z, s, p.id in lv.lower_bound, design, dev, verdict))
+        lifted = _with_level(p, z, s, p.id in lv.lower_bound, design, dev, verdict)
+        out.append(replace(lifted, least=pile_least_depth(lifted, min_clearance)))
     pairs = []
     for i, a in enumerate(out):
         for b in out[i + 1:]:
@@ -335,6 +340,27 @@ def pile_levels(piles: Sequence[PileFit], tops: dict[int, float], *, tolerance: 
     return tuple(out), tuple(pairs), lv.notes
 
 
+def pile_least_depth(p: PileFit, min_clearance: float | None = None) -> dict[str, Any]:
+    """A pile top's least depth (the ``least_depth*`` keys,
+    :meth:`~mbinspect.least_depth.LeastDepth.fields`): the top's high edge, its level plus
+    the radius times the tilt's tangent, toward the tilt's bearing; its TVU from the level's
+    1-sigma, its THU from the centre's. A top no beam reached stands at least that high:
+    its least depth is at most that deep (a note says so, and its clearance never passes).
+    """
+    tilt = math.radians(p.tilt_deg or 0.0)
+    rise = p.radius * math.tan(tilt)
+    bearing = math.radians(p.tilt_azimuth_deg or 0.0)
+    edge = p.radius if tilt > 0 else 0.0
+    x, y = p.x + edge * math.sin(bearing), p.y + edge * math.cos(bearing)
+    z = float(p.top_z if p.top_z is not None else p.z) + rise
+    tvu = 1.96 * p.top_z_sigma if not p.top_z_lower_bound else math.nan
+    thu = 1.96 * p.sigma_xy
+    note = "top not sounded: the least depth is at most this" if p.top_z_lower_bound else \
+        "" if math.isfinite(tvu) else "the level's 1-sigma is unknown (one line)"
+    ld = LeastDepth(z, x, y, tvu, thu, p.n_top, 0, s44_order(-z, tvu, thu), note)
+    return ld.fields(min_clearance)
+
+
 def _verdict(deviation: float, sigma: float, tolerance: float, lower_bound: bool) -> str:
     """A top's verdict at 95 %; a top not sounded stands at least this high, so it fails
     only when already too high, and passes never."""
@@ -348,31 +374,3 @@ def _with_level(p: PileFit, z: float, s: float, lower: bool, design: float | Non
     """The pile with its level and its comparison with the design top."""
     return replace(p, top_z=z, top_z_sigma=s, top_z_lower_bound=lower, top_design=design,
                    top_deviation=dev, top_verdict=verdict)
-
-
-def leg_shims(piles: Sequence[PileFit], levels: Sequence[Level]) -> dict[int, tuple[float, float]]:
-    """The packing (m) each pile needs under a level frame resting on its jacket's highest
-    sounded top, with its 1-sigma (from the pair's level difference; NaN where a top was
-    not sounded).
-
-    Examples
-    --------
-    >>> from mbinspect.piles.results import PileFit
-    >>> p = [PileFit(i, 0.0, 0.0, z, 0.75, None, None, "intersection", 50, 50, 360, 0.01, 0.002, top_z=z)
-    ...      for i, z in ((1, -16.0), (2, -16.03))]
-    >>> leg_shims(p, [Level(1, 1, 2, -0.03, 0.004)])[2]
-    (0.030000000000000249, 0.004)
-    """
-    by_pair = {(lv.a, lv.b): lv for lv in levels}
-    out: dict[int, tuple[float, float]] = {}
-    for g in sorted({p.group for p in piles}):
-        members = [p for p in piles if p.group == g and p.top_z is not None]
-        sounded = [p for p in members if not p.top_z_lower_bound] or members
-        if not sounded:
-            continue
-        high = max(sounded, key=lambda p: float(p.top_z))  # type: ignore[arg-type]
-        for p in members:
-            pair = by_pair.get((high.id, p.id)) or by_pair.get((p.id, high.id))
-            sigma = 0.0 if p.id == high.id else math.nan if pair is None or pair.lower_bound else pair.sigma
-            out[p.id] = (float(high.top_z) - float(p.top_z), sigma)  # type: ignore[arg-type]
-    return out

@@ -53,6 +53,9 @@ class PileOptions(Options):
     level_tolerance: float = option(0.02, unit="m", help="how far a top may miss the design's top level, "
                                     "and a level difference the design's (decided at 95 per cent)",
                                     check="positive")
+    min_clearance: float | None = option(None, unit="m", check="positive", kind=float,
+                                         help="the least depth every pile top must keep below the stated "
+                                              "datum (pass, fail or undecided at 95 per cent)")
     crop: tuple[Any, ...] | None = option(
         None, unit="m", help="keep only this box (xmin,ymin,xmax,ymax) or polygon (x1,y1,x2,y2,...)",
         check=crop_value, kind=tuple, metavar="XMIN,YMIN,XMAX,YMAX", parse=parse_crop)

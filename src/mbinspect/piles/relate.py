@@ -12,9 +12,9 @@ import numpy as np
 from ..io import PointCloud
 from .assess import other_method_piles
 from .design import Design
-from .frame import fit_frames
+from .frame import fit_frames, leg_shims
 from .group import group_piles
-from .level import leg_shims, pile_levels
+from .level import pile_levels
 from .match import apply_design
 from .options import PileOptions
 from .radius import JointRadius
@@ -68,7 +68,8 @@ def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: Pi
     piles_t, remap, warn = apply_design(tuple(piles), design)
     piles_t = group_piles(piles_t, design, mode=opts.groups)
     piles_t, levels, level_notes = pile_levels(piles_t, design.tops if design is not None else {},
-                                               tolerance=opts.level_tolerance)
+                                               tolerance=opts.level_tolerance,
+                                               min_clearance=opts.min_clearance)
     covs = {remap[k]: v for k, v in covs.items()}
     pairs = spacings(piles_t, covs, design, opts.tolerance, all_pairs=opts.all_pairs,
                      method="centre" if opts.method == "centre" else "intersection")

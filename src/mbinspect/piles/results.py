@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..fit import Cylinder, Plane
+from ..least_depth import least_of
 from ..outputs import Recorded, record_from, to_jsonable
 from ..seabed import GridSurface
 from .pairs import FrameFit, Level, Spacing
@@ -139,7 +140,8 @@ class PileFit:
     vertical offsets fitted out (:mod:`~mbinspect.piles.level`) and ``top_z_sigma`` its
     1-sigma (NaN: the data cannot show it); ``top_z_lower_bound`` when no beam reached the
     top; ``top_design``, ``top_deviation`` and ``top_verdict`` against a design's ``top``;
-    ``top_lines`` each line's mean height over the top plane (what the levels are fitted from).
+    ``top_lines`` each line's mean height over the top plane (what the levels are fitted from);
+    ``least`` the top's least depth (:func:`~mbinspect.piles.level.pile_least_depth`).
     """
 
     id: int
@@ -171,6 +173,7 @@ class PileFit:
     top_deviation: float | None = None
     top_verdict: str | None = None
     top_lines: tuple[dict[str, Any], ...] = field(default=(), repr=False)
+    least: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``piles.json``; the other method's centre under ``methods``."""
@@ -185,7 +188,7 @@ class PileFit:
             "top_z": self.top_z, "top_z_sigma": self.top_z_sigma,
             "top_z_lower_bound": self.top_z_lower_bound, "top_design": self.top_design,
             "top_deviation": self.top_deviation, "top_verdict": self.top_verdict,
-            "top_lines": list(self.top_lines),
+            "top_lines": list(self.top_lines), **self.least,
         }
         if self.alternatives:
             d["methods"] = self.alternatives
@@ -195,7 +198,8 @@ class PileFit:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PileFit:
         """The pile of a ``piles.json`` row (:meth:`to_dict`'s inverse)."""
-        return record_from(cls, d, jackknife=d.get("jackknife") or "", alternatives=d.get("methods", {}))
+        return record_from(cls, d, jackknife=d.get("jackknife") or "", alternatives=d.get("methods", {}),
+                           least=least_of(d))
 
 
 @dataclass(frozen=True)

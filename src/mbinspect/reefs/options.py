@@ -114,6 +114,9 @@ class ReefOptions(Options):
                                check="positive")
     cluster_eps: float = option(0.5, unit="m", help="the paper's Euclidean clustering distance "
                                 "(paper method)", check="positive")
+    min_clearance: float | None = option(None, unit="m", check="positive", kind=float,
+                                         help="the least depth every object must keep below the stated "
+                                              "datum (pass, fail or undecided at 95 per cent)")
     seed: int = option(0, help="random seed", check="seed")
 
     def check_together(self) -> None:

@@ -225,4 +225,4 @@ def other_object(reef: Reef, reason: str) -> OtherObject:
     -------
     OtherObject
     """
-    return OtherObject(reef.x, reef.y, reef.height, reef.area, reef.z_top, reef.n_points, reason)
+    return OtherObject(reef.x, reef.y, reef.height, reef.area, reef.z_top, reef.n_points, reason, reef.least)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..evaluate import Evaluation
+from ..least_depth import least_of
 from ..outputs import Recorded, record_from, to_jsonable
 from .terrain import TerrainMask
 
@@ -39,13 +40,16 @@ class Reef:
     design_bearing_deg: float = math.nan
     design_misfit: float = math.nan
     sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
+    least: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """One row of ``reefs.json`` (``outline``: the footprint polygon, m)."""
+        """One row of ``reefs.json`` (``outline``: the footprint polygon, m; the least depth's
+        ``least_depth*`` keys, :meth:`~mbinspect.least_depth.LeastDepth.fields`)."""
         d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
                                              "length", "width", "orientation_deg", "volume",
                                              "envelope_volume", "n_points", "group", "design",
                                              "design_scale", "design_bearing_deg", "design_misfit")}
+        d.update(self.least)
         d["outline"] = [list(v) for v in self.outline]
         d["sources"] = list(self.sources)
         return to_jsonable(d)
@@ -53,7 +57,7 @@ class Reef:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Reef:
         """The reef of a ``reefs.json`` row (:meth:`to_dict`'s inverse)."""
-        return record_from(cls, d)
+        return record_from(cls, d, least=least_of(d))
 
 
 @dataclass(frozen=True)
@@ -79,16 +83,19 @@ class OtherObject:
     z_top: float
     n_points: int
     reason: str
+    least: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """One row of ``others`` in ``reefs.json``."""
+        """One row of ``others`` in ``reefs.json``, with its least depth."""
         return to_jsonable({"x": self.x, "y": self.y, "height": self.height, "area": self.area,
-                            "z_top": self.z_top, "n_points": self.n_points, "reason": self.reason})
+                            "z_top": self.z_top, "n_points": self.n_points, "reason": self.reason,
+                            **self.least})
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> OtherObject:
         """The record of an ``others`` row."""
-        return record_from(cls, d)
+        return record_from(cls, d, least=least_of(d))
+
 
 
 @dataclass(frozen=True, eq=False)

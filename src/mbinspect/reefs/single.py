@@ -9,10 +9,13 @@ import math
 import numpy as np
 
 from ..grid import cell_index
+from ..noise import robust_sigma
+from ..seabed import GROUND_BAND
 from ..strays import cell_groups
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .footprint import Raster
 from .ground import Seabed
+from .least import with_least_depth
 from .measure import measure_reef
 from .options import ReefOptions
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
@@ -147,12 +150,18 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     free = reefs
     if designs:
         reefs = [with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
-    others = [other_object(measure_reef(points, p, raster, seabed, is_reef=is_reef),
-                           f"smaller than `min_area` {options.min_area:g} m²") for p in small]
     context = Context(points, is_reef, raster, ping, line,
                       ground_soundings(points, is_reef, height, line) if line is not None else None)
+    clear = options.min_clearance
+    ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
+    noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
+    small_note = f"smaller than `min_area` {options.min_area:g} m²"
+    others = [other_object(with_least_depth(measure_reef(points, p, raster, seabed, is_reef=is_reef), m,
+                                            context, clear, noise), small_note)
+              for p, m in zip(small, _members(points, is_reef, raster, small), strict=True)]
     kept, kept_members = [], []
     for r, f, p, m in zip(reefs, free, parts, _members(points, is_reef, raster, parts), strict=True):
+        r, f = (with_least_depth(o, m, context, clear, noise) for o in (r, f))
         misfit = design_misfit(Candidate(r, p), context, options)
         if misfit:  # no design given fits it: its free-form measures, judged by its shape
             r = f

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .clearance import LEAST_COLS, clearance_section
 from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
@@ -198,7 +199,7 @@ def pile_outputs(result: Any, points: np.ndarray, *, title: str = "Pile position
     features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [p["x"], p["y"]]},
                  "properties": {c: p.get(c) for c in PILE_COLS if c != "flags"}
                  | {"flags": "; ".join(p.get("flags", []))}} for p in rows]
-    tables = (("piles.csv", rows, PILE_COLS), ("spacings.csv", d["spacings"], SPACING_COLS),
+    tables = (("piles.csv", rows, PILE_COLS + LEAST_COLS), ("spacings.csv", d["spacings"], SPACING_COLS),
               ("levels.csv", d["levels"], LEVEL_COLS))
     return Outputs("piles", d, tables, features, crs_of(result),
                    lambda out: pile_figures(result, points, out), _figure_file,
@@ -250,6 +251,7 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes],
         sections.append((heading, html_table(rows, list(SPACING_HEAD), list(SPACING_HEAD.values()))))
     sections += [frame_section(f) for f in result.frames]
     sections += [level_section(result, g) for g in sorted({lv.group for lv in result.levels})]
+    sections.append(clearance_section([(f"pile {p['id']} top", p) for p in d["piles"]], d["parameters"]))
     sections.append(("Piles (top centre)", html_table([pile_row(q) for q in result.piles], list(PILE_HEAD),
                                                       list(PILE_HEAD.values()))))
     if result.other_piles:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..grid import bounds as plan_bounds
+from .clearance import LEAST_COLS, clearance_section
 from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
@@ -231,7 +232,7 @@ def reef_outputs(result: Any, points: np.ndarray, *, title: str = "Artificial re
     Outputs
     """
     d = result.to_dict()
-    cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else [])
+    cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else []) + LEAST_COLS
     features = []
     for r in d["reefs"]:
         ring = r["outline"] + r["outline"][:1] if r["outline"] else []
@@ -303,6 +304,9 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
     sections.append(("Reefs", html_table(rows, list(head), list(head.values()))))
     if d["others"]:
         sections.append(("Other objects", _others_table(d["others"])))
+    sections.append(clearance_section([(f"reef {r['id']}", r) for r in d["reefs"]]
+                                      + [(f"other at ({o['x']:.1f}, {o['y']:.1f})", o) for o in d["others"]
+                                         if o["n_points"] > SPECK_SOUNDINGS], d["parameters"]))
     listing = json_dumps({"filters": d["filters"], "seabed": d["seabed"]})
     sections.append(("Filters and seabed", f"<pre>{html.escape(listing)}</pre>"))
     sections.append(("Input and software", provenance_table(d["parameters"])))
