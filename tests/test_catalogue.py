@@ -106,8 +106,9 @@ def test_kmall_extra_detections_are_not_seabed():
 
 
 def test_options_are_matched_whole(capsys):
-    """argparse's abbreviations took `--plan` for `--plane-threshold`."""
-    _one_line(capsys, main(["reefs", str(KMALL_EG), "--plan", "plan.csv"]), "unrecognized arguments: --plan")
+    """argparse's abbreviations took `--plan` for `--plane-threshold` (`--plan` is now the reef plan)."""
+    _one_line(capsys, main(["reefs", str(KMALL_EG), "--plane-thr", "0.1"]),
+              "unrecognized arguments: --plane-thr")
 
 
 @pytest.mark.parametrize("address", ["nonsense", "http://host:8786", "tcp://host"])

@@ -108,7 +108,7 @@ def s44_order(depth: float, tvu95: float, thu95: float) -> str | None:
 
     Examples
     --------
-    >>> s44_order(20.0, 0.2, 0.5), s44_order(20.0, 0.3, 0.5), s44_order(20.0, 3.0, 1.0)
+    >>> s44_order(20.0, 0.2, 0.5), s44_order(20.0, 0.28, 0.5), s44_order(20.0, 3.0, 1.0)
     ('exclusive', 'special', None)
     """
     if not (math.isfinite(tvu95) and math.isfinite(thu95)):

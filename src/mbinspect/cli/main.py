@@ -59,7 +59,7 @@ def _flag_of(args: argparse.Namespace | None, option: str) -> str:
     flags = {"out": "--out", "cell": "--cell", "columns": "--columns", "delimiter": "--delimiter",
              "format": "--format", "seed": "--seed", "design": "--design", "overwrite": "--overwrite",
              "crs": "--crs", "keep_rejected": "--keep-rejected", "z_up": "--z-up", "tide": "--tide",
-             "datum_offset": "--datum-offset",
+             "datum_offset": "--datum-offset", "permit_area": "--permit-area", "plan": "--plan",
              "decimal": "--decimal",
              "force": "--force", "depth_positive": "--depth-positive"}
     options_class = getattr(args, "options_class", None)  # set by a pipeline's command

@@ -28,6 +28,12 @@ def _add_reef_options(p: argparse.ArgumentParser) -> None:
 
     g = p.add_argument_group("reefs (every option of mbinspect.reefs.ReefOptions)")
     g.add_argument("--reference", metavar="CSV", help="reference reef positions: x,y[,id]")
+    g.add_argument("--plan", metavar="CSV",
+                   help="the deployment plan: id,x,y[,bearing_deg][,kind][,group]; each reef's offset and "
+                        "bearing error, pass/fail against --placement-tolerance, units not found")
+    g.add_argument("--permit-area", metavar="POLYGON",
+                   help="with --plan: the permitted area, a GeoJSON file (WGS 84 unless it names a CRS) or "
+                        "WKT POLYGON text in the survey's CRS; each reef inside or outside it")
     add_flags(g, ReefOptions)
     add_survey_flags(p)
     add_output(p, "reefs-out")
@@ -46,6 +52,7 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     survey = survey_options(args)
     check_input(args)
     reference = read_reference(args.reference) if args.reference else None
+    plan = _plan(args)
     design_files = [s for s in (args.opt_design or "").split(",") if s.strip().lower().endswith(".json")]
     out = Path(args.out or "reefs-out")
     with output_dir(out, overwrite=args.overwrite, inputs=[*map(str, args.files), args.reference,
@@ -56,7 +63,9 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
         run = run_pipeline("reefs", args, args.files, options, survey, verbosity=rep.verbosity,
                            extra={"reference": reference, "times": times}, staging=tmp, stages=rep.progress)
         rep.debug(f"extracted {len(run.result.reefs)} reefs in {time.perf_counter() - t:.2f} s")
-        result = provenance(run.result, args, argv, reference=args.reference)
+        result = provenance(run.result, args, argv, reference=args.reference, plan=args.plan)
+        if plan is not None:
+            result = _placed(result, plan, args, options)
         t_out = time.perf_counter()
         write_reef_outputs(result, run.points, tmp, figures=not args.no_figures)
         if times is not None and times.started is not None:  # in memory: each stage's time
@@ -72,10 +81,48 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
         if ev is not None:
             print(f"against {args.reference}: TP {ev['tp']}, FP {ev['fp']}, FN {ev['fn']}, "
                   f"correctness {percent(ev['correctness'])}, completeness {percent(ev['completeness'])}")
+        if plan is not None:
+            placed = [r["placement"] for r in d["reefs"] if r.get("placement")]
+            print(f"against the plan {args.plan}: {len(placed)} of {len(plan.rows)} units found, "
+                  f"{placed.count('pass')} placed within {options.placement_tolerance:g} m at 95 %, "
+                  f"{placed.count('fail')} not, {placed.count('undecided')} undecided; "
+                  f"{len(d['plan_missing'])} missing, {sum(r.get('plan_id') is None for r in d['reefs'])} "
+                  "reefs not in the plan"
+                  + (f"; {sum(r.get('in_permit') is False for r in d['reefs'])} outside the permit area"
+                     if args.permit_area else ""))
     for w in result.warnings:
         print(f"mbinspect: warning: {w}", file=sys.stderr)
-    rep.info(f"results in {out}/ (report.html, reefs.json, reefs.csv, reefs.geojson)")
+    rep.info(f"results in {out}/ (report.html, reefs.json, reefs.csv, reefs.geojson"
+             + (", placement.geojson)" if plan is not None else ")"))
     return 0
+
+
+def _plan(args: argparse.Namespace) -> Any:
+    """The plan of ``--plan`` (read now: a bad row stops the run before it starts)."""
+    from ..errors import ParameterError
+    from ..reefs.plan import read_plan
+
+    if args.permit_area and not args.plan:
+        raise ParameterError("permit_area: given without --plan; expected a plan to place the reefs by",
+                             option="permit_area")
+    return read_plan(args.plan) if args.plan else None
+
+
+def _placed(result: Any, plan: Any, args: argparse.Namespace, options: Any) -> Any:
+    """The result placed against the plan (and the permit area, in the survey's CRS)."""
+    import dataclasses
+
+    import numpy as np
+
+    from ..reefs.plan import place_reefs, read_permit
+    from ..report import crs_of
+
+    if args.permit_area:
+        xy = np.array([[u["x"], u["y"]] for u in plan.rows])
+        ring, note = read_permit(args.permit_area, crs_of(result), xy)
+        plan = dataclasses.replace(plan, permit=ring, permit_source=note)
+    return place_reefs(result, plan, tolerance=options.placement_tolerance,
+                       position_sigma=options.position_sigma, bearing_sigma_deg=options.bearing_sigma_deg)
 
 
 def add_parser(sub: Any) -> None:

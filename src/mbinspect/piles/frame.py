@@ -142,8 +142,9 @@ def leg_shims(piles: Sequence[PileFit], levels: Sequence[Level]) -> dict[int, tu
     >>> from mbinspect.piles.results import PileFit
     >>> p = [PileFit(i, 0.0, 0.0, z, 0.75, None, None, "intersection", 50, 50, 360, 0.01, 0.002, top_z=z)
     ...      for i, z in ((1, -16.0), (2, -16.03))]
-    >>> leg_shims(p, [Level(1, 1, 2, -0.03, 0.004)])[2]
-    (0.030000000000000249, 0.004)
+    >>> shim, sigma = leg_shims(p, [Level(1, 1, 2, -0.03, 0.004)])[2]
+    >>> round(shim, 6), sigma
+    (0.03, 0.004)
     """
     by_pair = {(lv.a, lv.b): lv for lv in levels}
     out: dict[int, tuple[float, float]] = {}

@@ -114,6 +114,14 @@ class ReefOptions(Options):
                                check="positive")
     cluster_eps: float = option(0.5, unit="m", help="the paper's Euclidean clustering distance "
                                 "(paper method)", check="positive")
+    placement_tolerance: float = option(0.5, unit="m", check="positive",
+                                        help="how far a reef may land from its planned position (with "
+                                             "--plan; decided at 95 per cent)")
+    position_sigma: float = option(0.05, unit="m", check="positive",
+                                   help="a reef centre's 1-sigma for the placement verdict (the studies: "
+                                        "2.5 cm RMS with a design fit, 4 cm without; add the positioning's)")
+    bearing_sigma_deg: float = option(1.0, unit="deg", check="positive",
+                                      help="a fitted design's bearing 1-sigma (the studies: 0.8 deg RMS)")
     min_clearance: float | None = option(None, unit="m", check="positive", kind=float,
                                          help="the least depth every object must keep below the stated "
                                               "datum (pass, fail or undecided at 95 per cent)")

@@ -41,6 +41,7 @@ class Reef:
     design_misfit: float = math.nan
     sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
     least: dict[str, Any] = field(default_factory=dict)
+    plan: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``reefs.json`` (``outline``: the footprint polygon, m; the least depth's
@@ -50,6 +51,7 @@ class Reef:
                                              "envelope_volume", "n_points", "group", "design",
                                              "design_scale", "design_bearing_deg", "design_misfit")}
         d.update(self.least)
+        d.update(self.plan)
         d["outline"] = [list(v) for v in self.outline]
         d["sources"] = list(self.sources)
         return to_jsonable(d)
@@ -57,7 +59,12 @@ class Reef:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Reef:
         """The reef of a ``reefs.json`` row (:meth:`to_dict`'s inverse)."""
-        return record_from(cls, d, least=least_of(d))
+        return record_from(cls, d, least=least_of(d), plan={k: d[k] for k in PLAN_KEYS if k in d})
+
+
+#: The keys of a reef's placement against the plan (:mod:`mbinspect.reefs.plan`).
+PLAN_KEYS = ("plan_id", "plan_dx", "plan_dy", "plan_offset", "plan_offset_sigma", "placement",
+             "bearing_error_deg", "bearing_error_sigma_deg", "in_permit")
 
 
 @dataclass(frozen=True)
@@ -122,6 +129,9 @@ class ReefResult:
         ``reef_area_used``: the single-reef area the splitting used (m²).
     reference_xy : ndarray (R, 2) or None
         The reference positions scored against.
+    plan_missing : tuple of dict or None
+        With a plan (:func:`~mbinspect.reefs.plan.place_reefs`): the planned units no reef
+        was matched to.
     """
 
     reefs: tuple[Reef, ...]
@@ -136,6 +146,7 @@ class ReefResult:
     surface: Any = field(default=None, repr=False)
     footprint: dict[str, Any] = field(default_factory=dict)
     reference_xy: np.ndarray | None = field(default=None, repr=False)
+    plan_missing: tuple[dict[str, Any], ...] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The result as JSON-ready dicts and lists (``reefs.json``)."""
@@ -154,6 +165,7 @@ class ReefResult:
             "parameters": self.parameters, "warnings": list(self.warnings),
             "region": self.region.to_dict() if self.region is not None else None,
             "footprint": self.footprint,
+            **({"plan_missing": list(self.plan_missing)} if self.plan_missing is not None else {}),
         })
 
     @classmethod
@@ -179,4 +191,5 @@ class ReefResult:
         return cls(reefs, tuple(d.get("groups", [])), others,
                    dict(d.get("seabed") or {}), dict(d.get("filters") or {}), evaluation,
                    dict(d.get("parameters", {})), tuple(d.get("warnings", [])),
-                   None if region is None else Recorded(region), None, dict(d.get("footprint") or {}), ref_xy)
+                   None if region is None else Recorded(region), None, dict(d.get("footprint") or {}), ref_xy,
+                   None if d.get("plan_missing") is None else tuple(d["plan_missing"]))

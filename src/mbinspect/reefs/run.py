@@ -21,6 +21,7 @@ from .ground import Seabed, fit_seabed
 from .group import number_reefs
 from .options import ReefOptions
 from .paper import paper_clusters
+from .plan import ReefPlan, place_reefs
 from .results import OtherObject, Reef, ReefResult
 from .score import score_reefs
 from .single import reef_islands
@@ -80,7 +81,7 @@ def _check_resolution(pts: np.ndarray, opts: ReefOptions, filter_note: str | Non
 def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = None, *,
                   reference: tuple[np.ndarray, tuple[Any, ...]] | None = None,
                   progress: Callable[[float], None] | None = None, times: StageTimes | None = None,
-                  **overrides: Any) -> ReefResult:
+                  plan: ReefPlan | None = None, **overrides: Any) -> ReefResult:
     """Extract, separate and measure artificial reefs; score them against a reference.
 
     Stages: the paper's radius filter (:func:`denoise`), the terrain screen
@@ -97,6 +98,9 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
         Every option (:class:`ReefOptions`).
     reference : (positions (R, 2), ids), optional
         Reference reef positions (:func:`mbinspect.evaluate.read_reference`).
+    plan : ReefPlan, optional
+        The deployment plan (:func:`~mbinspect.reefs.plan.read_plan`): each reef placed
+        against it (:func:`~mbinspect.reefs.plan.place_reefs`).
     progress : callable, optional
         Called with the fraction done (0 to 1).
     times : StageTimes, optional
@@ -168,8 +172,12 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     report(1.0)
     parameters = {**opts.to_dict(), "input": {"source": cloud.source, "n_points": len(pts), "crs": cloud.crs},
                   "software": f"mbinspect {__version__}"}
-    return ReefResult(tuple(reefs), tuple(groups), tuple(others), seabed_info, filters, evaluation,
-                      parameters, tuple(warnings), ground.region, surf, {"reef_area_used": used_area}, ref_xy)
+    result = ReefResult(tuple(reefs), tuple(groups), tuple(others), seabed_info, filters, evaluation,
+                        parameters, tuple(warnings), ground.region, surf, {"reef_area_used": used_area},
+                        ref_xy)
+    return result if plan is None else place_reefs(result, plan, tolerance=opts.placement_tolerance,
+                                                   position_sigma=opts.position_sigma,
+                                                   bearing_sigma_deg=opts.bearing_sigma_deg)
 
 
 def _laps(times: StageTimes | None) -> Callable[[str], None]:

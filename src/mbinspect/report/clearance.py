@@ -1,4 +1,5 @@
-"""The least depths of a result's objects as a report table and CSV columns (both pipelines)."""
+"""Acceptance tables: the least depths of a result's objects (both pipelines) and the reefs'
+placement against their plan, as report tables, CSV columns and GeoJSON lines."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from typing import Any
 
 from .html import html_table
 
-__all__ = ["LEAST_COLS", "clearance_section"]
+__all__ = ["LEAST_COLS", "clearance_section", "placement_section", "placement_lines"]
 
 #: The least depth's columns in a pipeline's CSV.
 LEAST_COLS = ["least_depth", "least_depth_tvu95", "least_depth_x", "least_depth_y", "least_depth_thu95",
@@ -36,3 +37,38 @@ def clearance_section(rows: Sequence[tuple[str, Mapping[str, Any]]], parameters:
     need = parameters.get("min_clearance")
     heading = "Least depths (positive down; " + ref + (f"; clearance {need:g} m" if need else "") + ")"
     return heading, html_table(table, list(_HEAD), list(_HEAD.values()))
+
+
+_PLACE_HEAD = {"reef": "reef", "unit": "planned unit", "offset": "offset (m)", "sigma": "1σ (m)",
+               "dx": "east (m)", "dy": "north (m)", "bearing": "bearing error (°)",
+               "verdict": "placed at 95 %", "permit": "in the permit area"}
+
+
+def placement_section(d: Mapping[str, Any]) -> tuple[str, str]:
+    """The reefs against their plan: one row per reef, then the units not found."""
+    rows = [{"reef": r["id"], "unit": r.get("plan_id") or "not in the plan",
+             "offset": _m(r.get("plan_offset")), "sigma": _m(r.get("plan_offset_sigma"), ".3f"),
+             "dx": _m(r.get("plan_dx")), "dy": _m(r.get("plan_dy")),
+             "bearing": _m(r.get("bearing_error_deg"), "+.1f"), "verdict": r.get("placement") or "",
+             "permit": {True: "yes", False: "NO", None: ""}[r.get("in_permit")]}
+            for r in d["reefs"]]
+    rows += [{"reef": "not found", "unit": m["id"], "offset": "", "sigma": "", "dx": "", "dy": "",
+              "bearing": "", "verdict": "missing", "permit": ""} for m in d.get("plan_missing") or []]
+    tol = d["parameters"].get("placement_tolerance")
+    return (f"Placement against the plan (tolerance {tol:g} m)" if tol else "Placement against the plan",
+            html_table(rows, list(_PLACE_HEAD), list(_PLACE_HEAD.values())))
+
+
+def placement_lines(d: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """GeoJSON lines from each planned unit's place to the reef found there."""
+    out = []
+    for r in d["reefs"]:
+        if r.get("plan_id") is None:
+            continue
+        start = [r["x"] - r["plan_dx"], r["y"] - r["plan_dy"]]
+        keys = ("plan_id", "plan_offset", "placement", "bearing_error_deg", "in_permit")
+        props = {k: r.get(k) for k in keys}
+        out.append({"type": "Feature",
+                    "geometry": {"type": "LineString", "coordinates": [start, [r["x"], r["y"]]]},
+                    "properties": {"reef": r["id"], **props}})
+    return out

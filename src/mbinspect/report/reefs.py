@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..grid import bounds as plan_bounds
-from .clearance import LEAST_COLS, clearance_section
+from .clearance import LEAST_COLS, clearance_section, placement_lines, placement_section
 from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
@@ -233,15 +233,19 @@ def reef_outputs(result: Any, points: np.ndarray, *, title: str = "Artificial re
     """
     d = result.to_dict()
     cols = _REEF_COLS + (_DESIGN_COLS if result.parameters.get("design") else []) + LEAST_COLS
+    # what a reef's row carries beyond these (its placement against a plan): columns too
+    cols += [k for k in dict.fromkeys(k for r in d["reefs"] for k in r) if k not in cols
+             and k not in ("outline", "sources") and not k.startswith("least_depth")]
     features = []
     for r in d["reefs"]:
         ring = r["outline"] + r["outline"][:1] if r["outline"] else []
         features.append({"type": "Feature",
                          "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
-                         "properties": {c: r[c] for c in cols}})
+                         "properties": {c: r.get(c) for c in cols}})
     return Outputs("reefs", d, (("reefs.csv", d["reefs"], cols),), features, crs_of(result),
                    lambda out: reef_figures(result, points, out), _figure_file,
-                   lambda images: html_page(title, _page(result, d, images), images))
+                   lambda images: html_page(title, _page(result, d, images), images),
+                   (("placement", placement_lines(d)),) if "plan_missing" in d else ())
 
 
 def write_reef_outputs(result: Any, points: np.ndarray, out: Path, *, figures: bool = True,
@@ -304,6 +308,8 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
     sections.append(("Reefs", html_table(rows, list(head), list(head.values()))))
     if d["others"]:
         sections.append(("Other objects", _others_table(d["others"])))
+    if "plan_missing" in d:
+        sections.append(placement_section(d))
     sections.append(clearance_section([(f"reef {r['id']}", r) for r in d["reefs"]]
                                       + [(f"other at ({o['x']:.1f}, {o['y']:.1f})", o) for o in d["others"]
                                          if o["n_points"] > SPECK_SOUNDINGS], d["parameters"]))

@@ -50,6 +50,8 @@ class Outputs:
         A figure's name -> its file name.
     page : callable, optional
         ``page(images) -> str``: the report page, the figures inlined.
+    layers : tuple of (stem, features)
+        More GeoJSON layers, each in its own files (``<stem>.geojson`` and projected).
     """
 
     stem: str
@@ -60,6 +62,7 @@ class Outputs:
     figures: Callable[[Path], dict[str, bytes]] | None = None
     figure_file: Callable[[str], str] = lambda name: f"{name}.png"
     page: Callable[[dict[str, bytes]], str] | None = None
+    layers: tuple[tuple[str, list[dict[str, Any]]], ...] = ()
 
 
 #: A writer: ``(outputs, folder, images) -> names of the files written``.
@@ -78,7 +81,8 @@ def _csv(o: Outputs, out: Path, images: dict[str, bytes]) -> list[str]:
 
 
 def _geojson(o: Outputs, out: Path, images: dict[str, bytes]) -> list[str]:
-    return write_gis(o.features, o.crs, out, o.stem)
+    return write_gis(o.features, o.crs, out, o.stem) + [
+        name for stem, features in o.layers for name in write_gis(features, o.crs, out, stem)]
 
 
 def _figures(o: Outputs, out: Path, images: dict[str, bytes]) -> list[str]:

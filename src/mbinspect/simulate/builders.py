@@ -133,7 +133,8 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
     # its own; the table's size bounds the ids, not the field (ids stay in the hundreds)
     sunk = rng.uniform(0.0, opt.burial_max, 10_000) if opt.burial_max > 0 else np.zeros(10_000)
     make = functools.partial(_make_reef, seabed, sunk, opt.reef_scale)
-    reefs = _place_groups(kinds, cols, rows, opt, rng, make)
+    nominal: dict[int, tuple[float, float, float | None]] = {}
+    reefs = _place_groups(kinds, cols, rows, opt, rng, make, nominal)
     _bring_together(reefs, opt, rng, make)
     xy = np.array([[r.x, r.y] for r in reefs])
     lo, hi = xy.min(axis=0) - 12, xy.max(axis=0) + 12
@@ -154,7 +155,11 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
         lines.append(Line(((xs[0], y), (xs[1], y)), ping_spacing=opt.ping_spacing))
     scene = Scene(seabed, reefs=tuple(reefs), boulders=tuple(boulders), debris=tuple(debris),
                   origin=(opt.origin_x, opt.origin_y))
-    return scene, Survey(tuple(lines), sonar), {}
+    # the deployment plan: each unit's nominal place and, when one was set, its bearing
+    kinds_of = {r.id: r.kind for r in reefs}
+    plan = [{"id": rid, "x": x + opt.origin_x, "y": y + opt.origin_y, "bearing_deg": b, "kind": kinds_of[rid]}
+            for rid, (x, y, b) in sorted(nominal.items())]
+    return scene, Survey(tuple(lines), sonar), {"plan": plan}
 
 
 def _make_reef(seabed: Seabed, sunk: np.ndarray, scale: float, rid: int, kind: str, x: float, y: float,
@@ -165,24 +170,30 @@ def _make_reef(seabed: Seabed, sunk: np.ndarray, scale: float, rid: int, kind: s
 
 
 def _place_groups(kinds: list[str], cols: int, rows: int, opt: ReefFieldOptions, rng: np.random.Generator,
-                  make: Callable[..., Reef]) -> list[Reef]:
-    """Each group's reefs on a square grid, jittered, kept 1.2 m apart."""
+                  make: Callable[..., Reef], nominal: dict[int, tuple[float, float, float | None]]
+                  ) -> list[Reef]:
+    """Each group's reefs on a square grid, jittered, kept 1.2 m apart; each one's grid
+    place (and planned bearing) into ``nominal``."""
     side = int(math.ceil(math.sqrt(opt.per_group)))
     reefs: list[Reef] = []
     for g, kind in enumerate(kinds):
         gx = (g % cols - (cols - 1) / 2) * opt.group_spacing
         gy = ((rows - 1) / 2 - g // cols) * opt.group_spacing
         for k in range(opt.per_group):
-            nominal = (gx + (k % side - (side - 1) / 2) * opt.grid_spacing,
-                       gy + (k // side - (side - 1) / 2) * opt.grid_spacing)
+            place = (gx + (k % side - (side - 1) / 2) * opt.grid_spacing,
+                     gy + (k // side - (side - 1) / 2) * opt.grid_spacing)
             kk = kind if kind != "mixed" else ("cross2", "cross1", "hollow", "triangle")[k % 4]
+            planned = opt.plan_bearing_deg
             for _ in range(200):
-                x, y = np.asarray(nominal) + rng.normal(0.0, opt.jitter, 2)
-                cand = make(len(reefs) + 1, kk, x, y, rng.uniform(0, 90), g + 1)
+                x, y = np.asarray(place) + rng.normal(0.0, opt.jitter, 2)
+                turn = rng.uniform(0, 90) if planned is None else rng.normal(0.0, opt.bearing_scatter_deg)
+                b = turn if planned is None else planned + turn
+                cand = make(len(reefs) + 1, kk, x, y, b, g + 1)
                 if all(reef_gap(cand, r) > 1.2 for r in reefs
                        if math.hypot(r.x - x, r.y - y) < 8):
                     break
             reefs.append(cand)
+            nominal[cand.id] = (float(place[0]), float(place[1]), planned)
     return reefs
 
 

@@ -64,6 +64,10 @@ def write_bundle(folder: Path, truth: Mapping[str, Any], *, cloud: PointCloud | 
         cols = [c for c in ("group", "id", "x", "y", "top") if c in design[0]]
         write_table(list(design), folder / "design.csv", cols)
         written.append("design.csv")
+    if truth.get("plan"):
+        write_table([{k: ("" if v is None else v) for k, v in u.items()} for u in truth["plan"]],
+                    folder / "plan.csv", ["id", "x", "y", "bearing_deg", "kind"])
+        written.append("plan.csv")
     if truth.get("tide"):
         write_table(list(truth["tide"]), folder / "tide.csv", ["time", "height"])
         written.append("tide.csv")

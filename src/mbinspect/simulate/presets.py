@@ -77,6 +77,10 @@ class ReefFieldOptions(Options):
     grid_spacing: float = option(6.0, unit="m", help="nominal spacing of reefs in a group", check="positive")
     jitter: float = option(0.8, unit="m", check="non_negative",
                            help="placement scatter of each reef (1 sigma)")
+    plan_bearing_deg: float | None = option(None, unit="deg", check="finite", kind=float,
+                                            help="the planned bearing of every reef (none: each at random)")
+    bearing_scatter_deg: float = option(2.0, unit="deg", check="non_negative",
+                                        help="how far each reef turns from the planned bearing (1 sigma)")
     reef_scale: float = option(1.0, check="positive",
                                help="as-built size of every reef relative to its design")
     group_spacing: float = option(55.0, unit="m", help="spacing of group centres", check="positive")

@@ -1,0 +1,97 @@
+"""Reefs against their deployment plan (issue 30): each reef matched to its planned unit,
+its offset and bearing error against the truth, the permit area, units missing and extra."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mbinspect.cli.main import main
+from mbinspect.errors import InputError
+from mbinspect.io import PointCloud
+from mbinspect.reefs import ReefResult, extract_reefs
+from mbinspect.reefs.plan import ReefPlan, read_plan
+from mbinspect.simulate import simulate, write_bundle
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """A group of 9 cross2 reefs laid at a planned bearing of 30°, each turned 2° (1 sigma)
+    and landed 0.8 m (1 sigma) off its place."""
+    return simulate("reef-field", seed=4, groups="cross2", per_group=9, plan_bearing_deg=30.0, close_pairs=0,
+                    ping_spacing=0.6)
+
+
+def _plan(sim, drop: int | None = None) -> ReefPlan:
+    return ReefPlan(tuple({**u, "id": str(u["id"])} for u in sim.truth["plan"] if u["id"] != drop), "plan")
+
+
+def test_each_reef_is_matched_to_its_unit_with_its_offset_and_bearing_error(planned) -> None:
+    sim = planned
+    r = extract_reefs(sim.cloud, design="cross2", plan=_plan(sim), placement_tolerance=1.0)
+    truth = {str(t["id"]): t for t in sim.truth["reefs"]}
+    plan = {str(u["id"]): u for u in sim.truth["plan"]}
+    assert r.plan_missing == () and len(r.reefs) == 9
+    for f in r.reefs:
+        p = f.plan
+        t, u = truth[p["plan_id"]], plan[p["plan_id"]]
+        assert math.hypot(t["x"] - f.x, t["y"] - f.y) < 0.5  # the right unit
+        assert math.hypot(p["plan_dx"] - (t["x"] - u["x"]), p["plan_dy"] - (t["y"] - u["y"])) < 0.1
+        true_turn = (t["bearing_deg"] - 30.0 + 45) % 90 - 45
+        assert abs(p["bearing_error_deg"] - true_turn) < 3.0
+        off = math.hypot(t["x"] - u["x"], t["y"] - u["y"])
+        want = "pass" if off < 0.85 else "fail" if off > 1.15 else None
+        assert want is None or p["placement"] == want
+    back = ReefResult.from_dict(r.to_dict())
+    assert back.reefs[0].plan == r.reefs[0].plan and back.plan_missing == ()
+
+
+def test_a_unit_not_found_and_a_reef_not_in_the_plan(planned) -> None:
+    sim = planned
+    gone = sim.truth["reefs"][4]
+    far = np.hypot(sim.cloud.xyz[:, 0] - gone["x"], sim.cloud.xyz[:, 1] - gone["y"]) > 3.0
+    cloud = sim.cloud.subset(np.flatnonzero(far))  # unit 5 never landed: its reef is not there
+    r = extract_reefs(cloud, design="cross2", plan=_plan(sim, drop=2))  # and unit 2 is not planned
+    assert [m["id"] for m in r.plan_missing] == [str(gone["id"])]
+    extra = [f for f in r.reefs if f.plan["plan_id"] is None]
+    t2 = sim.truth["reefs"][1]
+    assert len(extra) == 1 and math.hypot(extra[0].x - t2["x"], extra[0].y - t2["y"]) < 0.5
+
+
+def test_plan_errors_name_line_and_column(tmp_path: Path) -> None:
+    f = tmp_path / "plan.csv"
+    f.write_text("id,x,y,bearing_deg\nA,1,2,30\nB,1,north,30\n")
+    with pytest.raises(InputError, match=r"line 3, column 3 \(y\): 'north' is not a number"):
+        read_plan(f)
+    f.write_text("id,x,y\nA,1,2\nA,3,4\n")
+    with pytest.raises(InputError, match="line 3: unit id 'A' appears twice"):
+        read_plan(f)
+
+
+@pytest.mark.slow
+def test_the_command_line_with_a_permit_area(planned, tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    sim = planned
+    folder = tmp_path / "sim"
+    folder.mkdir()
+    write_bundle(folder, sim.truth, cloud=PointCloud(sim.cloud.xyz, dict(sim.cloud.fields)),
+                 cloud_name="s.laz")
+    xs = sorted(u["x"] for u in sim.truth["plan"])
+    cut = (xs[2] + xs[3]) / 2  # the permit ends between the first and second column of units
+    ys = [u["y"] for u in sim.truth["plan"]]
+    wkt = (f"POLYGON (({xs[0] - 10} {min(ys) - 10}, {cut} {min(ys) - 10}, {cut} {max(ys) + 10}, "
+           f"{xs[0] - 10} {max(ys) + 10}, {xs[0] - 10} {min(ys) - 10}))")
+    out = tmp_path / "o"
+    assert main(["reefs", str(folder / "s.laz"), "--plan", str(folder / "plan.csv"), "--design", "cross2",
+                 "--permit-area", wkt, "--out", str(out), "--no-figures"]) == 0
+    said = capsys.readouterr().out
+    assert "9 of 9 units found" in said and "6 outside the permit area" in said
+    d = json.loads((out / "reefs.json").read_text())
+    assert sum(r["in_permit"] for r in d["reefs"]) == 3 and d["plan_missing"] == []
+    assert "placement" in (out / "reefs.csv").read_text().splitlines()[0]
+    assert main(["reefs", str(folder / "s.laz"), "--permit-area", wkt, "--out", str(tmp_path / "p")]) == 2
+    assert "--permit-area" in capsys.readouterr().err
