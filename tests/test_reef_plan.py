@@ -13,6 +13,7 @@ import pytest
 from mbinspect.cli.main import main
 from mbinspect.errors import InputError
 from mbinspect.io import PointCloud
+from mbinspect.reef_designs import BUILTIN_DESIGNS
 from mbinspect.reefs import ReefResult, extract_reefs
 from mbinspect.reefs.plan import ReefPlan, read_plan
 from mbinspect.simulate import simulate, write_bundle
@@ -43,6 +44,8 @@ def test_each_reef_is_matched_to_its_unit_with_its_offset_and_bearing_error(plan
         assert math.hypot(p["plan_dx"] - (t["x"] - u["x"]), p["plan_dy"] - (t["y"] - u["y"])) < 0.1
         true_turn = (t["bearing_deg"] - 30.0 + 45) % 90 - 45
         assert abs(p["bearing_error_deg"] - true_turn) < 3.0
+        # each stands 0.1 m sunk: the share of its design's height the seabed hides
+        assert abs(f.buried_share - (1 - t["height"] / BUILTIN_DESIGNS["cross2"].height)) < 0.05
         off = math.hypot(t["x"] - u["x"], t["y"] - u["y"])
         want = "pass" if off < 0.85 else "fail" if off > 1.15 else None
         assert want is None or p["placement"] == want

@@ -231,14 +231,18 @@ def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Ras
     return fits
 
 
-def with_design(reef: Reef, fit: DesignFit | None) -> Reef:
-    """A reef's measures with its centre, area, rectangle and outline from a fitted design.
+def with_design(reef: Reef, fit: DesignFit | None, designs: Sequence[ReefDesign] = ()) -> Reef:
+    """A reef's measures with its centre, area, rectangle and outline from a fitted design,
+    and the share of the design's height the seabed hides (``buried_share``: one minus the
+    exposed height over the design's, at its fitted scale; from ``designs``).
 
     Parameters
     ----------
     reef : Reef
     fit : DesignFit or None
         None leaves the reef as it is.
+    designs : sequence of ReefDesign
+        The designs, for their heights.
 
     Returns
     -------
@@ -247,9 +251,11 @@ def with_design(reef: Reef, fit: DesignFit | None) -> Reef:
     if fit is None:
         return reef
     rect = min_area_rectangle(fit.outline)
+    height = next((d.height for d in designs if d.name == fit.design), math.nan) * fit.scale
+    buried = min(max(1.0 - reef.height / height, 0.0), 1.0) if height > 0 else math.nan
     return replace(reef, x=fit.x, y=fit.y, area=fit.area, length=rect.length, width=rect.width,
                    orientation_deg=rect.bearing_deg,
                    envelope_volume=rect.length * rect.width * reef.height,
                    outline=tuple(map(tuple, np.round(fit.outline, 3).tolist())), design=fit.design,
                    design_scale=fit.scale, design_bearing_deg=fit.bearing_deg,
-                   design_misfit=fit.misfit)
+                   design_misfit=fit.misfit, buried_share=buried)

@@ -8,8 +8,8 @@ within half the distance to its nearest planned neighbour (at least ``MIN_REACH`
 that landed two metres off is still its unit, two reefs that swapped places are not taken
 for each other's. A reef's centre is known to ``position_sigma`` (the studies measure 2.5
 cm RMS with a design fit, 4 cm without; the positioning adds), its bearing to
-``bearing_sigma_deg``; a design's symmetry (a cross looks the same every 90°) folds the
-bearing error into half that turn either way.
+``bearing_sigma_deg``; a design's symmetry (a cross looks the same every 90°: its
+``symmetry`` 4) folds the bearing error into half that turn either way.
 """
 
 from __future__ import annotations
@@ -33,8 +33,6 @@ __all__ = ["ReefPlan", "read_plan", "read_permit", "place_reefs"]
 #: The least reach (m) of a planned unit for its reef.
 MIN_REACH = 1.0
 
-#: The turn after which each design looks the same (deg): crosses and squares 90, triangles 120.
-SYMMETRY_DEG = {"cross1": 90.0, "cross2": 90.0, "hollow": 90.0, "cube": 90.0, "triangle": 120.0}
 
 
 @dataclass(frozen=True)
@@ -179,12 +177,16 @@ def place_reefs(result: ReefResult, plan: ReefPlan, *, tolerance: float, positio
     pairs = _assign(rxy, pxy, reach)
     inside = None if plan.permit is None or not reefs else crop_mask(np.c_[rxy, np.zeros(len(rxy))],
                                                                       plan.permit)
+    # the turn after which each design looks the same (a cross every 90 deg)
+    turns = {d["name"]: 360.0 / max(int(d.get("symmetry") or 1), 1)
+             for d in result.parameters.get("design") or [] if isinstance(d, dict)}
     out = []
     for k, r in enumerate(reefs):
         u = pairs.get(k)
         fields: dict[str, Any] = {"plan_id": None if u is None else units[u]["id"]}
         if u is not None:
-            fields.update(_offsets(r, units[u], tolerance, position_sigma, bearing_sigma_deg))
+            fields.update(_offsets(r, units[u], tolerance, position_sigma, bearing_sigma_deg,
+                                   turns.get(r.design, 360.0)))
         if inside is not None:
             fields["in_permit"] = bool(inside[k])
         out.append(replace(r, plan=fields))
@@ -218,8 +220,8 @@ def _assign(rxy: np.ndarray, pxy: np.ndarray, reach: np.ndarray) -> dict[int, in
     return {int(i): int(j) for i, j in zip(rows, cols, strict=True) if cost[i, j] < big}
 
 
-def _offsets(r: Reef, unit: dict[str, Any], tolerance: float, sigma: float, bearing_sigma: float
-             ) -> dict[str, Any]:
+def _offsets(r: Reef, unit: dict[str, Any], tolerance: float, sigma: float, bearing_sigma: float,
+             turn: float) -> dict[str, Any]:
     """A matched reef's offset from its unit and its bearing error, each with its 1-sigma,
     and the placement verdict at 95 %."""
     dx, dy = r.x - float(unit["x"]), r.y - float(unit["y"])
@@ -228,7 +230,6 @@ def _offsets(r: Reef, unit: dict[str, Any], tolerance: float, sigma: float, bear
                            "placement": _decide(off, sigma, tolerance)}
     planned = unit.get("bearing_deg")
     if planned is not None and math.isfinite(r.design_bearing_deg):
-        turn = SYMMETRY_DEG.get(r.design or unit.get("kind") or "", 360.0)
         err = (r.design_bearing_deg - float(planned) + turn / 2) % turn - turn / 2
         out.update(bearing_error_deg=err, bearing_error_sigma_deg=bearing_sigma)
     return out

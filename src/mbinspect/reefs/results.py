@@ -41,6 +41,7 @@ class Reef:
     design_misfit: float = math.nan
     sources: tuple[dict[str, Any], ...] = field(default=(), repr=False)
     least: dict[str, Any] = field(default_factory=dict)
+    buried_share: float = math.nan
     plan: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
@@ -49,7 +50,8 @@ class Reef:
         d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
                                              "length", "width", "orientation_deg", "volume",
                                              "envelope_volume", "n_points", "group", "design",
-                                             "design_scale", "design_bearing_deg", "design_misfit")}
+                                             "design_scale", "design_bearing_deg", "design_misfit",
+                                             "buried_share")}
         d.update(self.least)
         d.update(self.plan)
         d["outline"] = [list(v) for v in self.outline]

@@ -149,7 +149,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights)
     free = reefs
     if designs:
-        reefs = [with_design(r, f) for r, f in zip(reefs, fits, strict=True)]
+        reefs = [with_design(r, f, designs) for r, f in zip(reefs, fits, strict=True)]
     context = Context(points, is_reef, raster, ping, line,
                       ground_soundings(points, is_reef, height, line) if line is not None else None)
     clear = options.min_clearance

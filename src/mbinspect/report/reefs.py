@@ -24,7 +24,7 @@ _REEF_COLS = ["id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "
               "orientation_deg", "volume", "envelope_volume", "n_points", "group"]
 
 
-_DESIGN_COLS = ["design", "design_scale", "design_bearing_deg", "design_misfit"]
+_DESIGN_COLS = ["design", "design_scale", "design_bearing_deg", "design_misfit", "buried_share"]
 
 
 def _hillshade(z: np.ndarray, cell: float) -> np.ndarray:
