@@ -11,7 +11,8 @@ beam; ``wharf``: three jackets of four piles, two raked; ``jacket-classic``: the
 sonar, no line errors): per configuration the tops sounded, the absolute level's error
 (``top_z``: RMS, max, share within its reported 2σ, median σ), the same for the plain
 centre elevation ``z`` the pipeline reported before (no σ), and the level differences of
-every pair of a jacket (RMS, max, within 2σ, median σ).
+every pair of a jacket (RMS, max, within 2σ, median σ); the tops' least depths (the high edge
+of the top) within their 95 % TVU.
 
 ``--real``: a jacket (or a row of two piles) injected into each real file as
 ``study_inject.py`` does; the rows say how many tops were sounded, by how many lines, the
@@ -64,8 +65,12 @@ def _errors(name: str, seed: int, res, truth: dict) -> dict:
            for p in res.piles if not p.top_z_lower_bound]
     pairs = [(v.difference - (truth[near[v.b]]["z"] - truth[near[v.a]]["z"]), v.sigma)
              for v in res.levels if not v.lower_bound]
+    # the least depth: the top's high edge (its level plus the radius up its tilt)
+    least = [(-p.least["least_depth"] - (truth[near[p.id]]["z"] + truth[near[p.id]]["radius"] * math.tan(
+        math.radians(truth[near[p.id]]["tilt_deg"]))), p.least["least_depth_tvu95"])
+        for p in res.piles if not p.top_z_lower_bound]
     lines = [len(p.top_lines) for p in res.piles]
-    return {"config": name, "seed": seed, "top": top, "pairs": pairs, "n": len(res.piles),
+    return {"config": name, "seed": seed, "top": top, "pairs": pairs, "least": least, "n": len(res.piles),
             "sounded": len(top), "lines": lines,
             "no_sigma": sum(not math.isfinite(p.top_z_sigma) for p in by_id.values())}
 
@@ -84,15 +89,18 @@ def _summary(rs: list[dict]) -> list[str]:
                     f"{1000 * np.median(sig[ok]):.1f}" if ok.any() else "-"]
         return out
 
+    least = np.array([t for r in rs for t in r["least"]]).reshape(-1, 2)
+    ok = np.isfinite(least[:, 1])
+    within = f"{100 * np.mean(np.abs(least[ok, 0]) <= least[ok, 1]):.0f} %" if ok.any() else "-"
     return ([f"{sum(r['sounded'] for r in rs)}/{sum(r['n'] for r in rs)}",
              f"{np.median([x for r in rs for x in r['lines']]):.0f}"]
             + stats(top[:, 0], top[:, 1]) + stats(top[:, 2], None) + stats(pairs[:, 0], pairs[:, 1])
-            + [f"{sum(r['no_sigma'] for r in rs)}"])
+            + [f"{sum(r['no_sigma'] for r in rs)}", within])
 
 
 HEAD = ["tops sounded", "lines per top", "top_z RMS mm", "max mm", "within 2σ", "median σ mm",
         "z (before) RMS mm", "max mm", "differences RMS mm", "max mm", "within 2σ", "median σ mm",
-        "levels without σ"]
+        "levels without σ", "least depth within TVU"]
 
 
 def _real(placements: int) -> None:

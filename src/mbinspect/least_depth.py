@@ -202,8 +202,8 @@ def _ping_gap(pts: np.ndarray, tree: cKDTree, ping: np.ndarray | None) -> float:
     if ping is None:
         return 0.0
     p = np.asarray(ping)
-    rows = np.linspace(0, len(pts) - 1, min(len(pts), 500)).astype(np.int64)
-    k = min(len(pts), 32)
+    rows = np.linspace(0, len(pts) - 1, min(len(pts), 100)).astype(np.int64)
+    k = min(len(pts), 24)
     d, idx = tree.query(pts[rows, :2], k=k)
     other = p[idx] != p[rows, None]
     first = np.where(other.any(axis=1), d[np.arange(len(rows)), other.argmax(axis=1)], np.nan)

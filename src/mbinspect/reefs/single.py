@@ -5,6 +5,7 @@ apart (:func:`reef_islands`), so that time and memory follow the reef points."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -161,7 +162,8 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
               for p, m in zip(small, _members(points, is_reef, raster, small), strict=True)]
     kept, kept_members = [], []
     for r, f, p, m in zip(reefs, free, parts, _members(points, is_reef, raster, parts), strict=True):
-        r, f = (with_least_depth(o, m, context, clear, noise) for o in (r, f))
+        r = with_least_depth(r, m, context, clear, noise)
+        f = replace(f, least=r.least)  # the same soundings: the same least depth
         misfit = design_misfit(Candidate(r, p), context, options)
         if misfit:  # no design given fits it: its free-form measures, judged by its shape
             r = f
