@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from .cylinder import cylinder_from_normals, cylinder_msac, fit_cylinder
 from .models import Circle, Cylinder, GeometricModel, Plane
-from .robust import RobustResult, msac, ransac_trials
+from .robust import RobustResult, clustered_cov, msac, ransac_trials
 
 __all__ = [
     "GeometricModel",
@@ -33,6 +33,7 @@ __all__ = [
     "RobustResult",
     "msac",
     "ransac_trials",
+    "clustered_cov",
     "fit_cylinder",
     "cylinder_from_normals",
     "cylinder_msac",

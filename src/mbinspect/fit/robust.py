@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["RobustResult", "msac", "ransac_trials"]
+__all__ = ["RobustResult", "msac", "ransac_trials", "clustered_cov"]
 
 M = TypeVar("M")
 
@@ -161,3 +161,20 @@ def _local_optimisation(data: np.ndarray, best: Any, score: float, inliers: np.n
             break
         best, score, inliers = refined, s, inl
     return best, score, inliers
+
+
+def clustered_cov(dev: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """The cluster-robust covariance of a mean: ``dev`` (N, k), each row's deviation from
+    the mean (weighted as the mean weighs it), summed within each group (a ping, a beam),
+    the sums' outer products over N².
+
+    Examples
+    --------
+    >>> clustered_cov(np.array([[1.0], [1.0], [-1.0], [-1.0]]), np.array([0, 0, 1, 1])).tolist()
+    [[0.5]]
+    """
+    d = np.asarray(dev, np.float64).reshape(len(dev), -1)
+    _, inv = np.unique(np.asarray(groups), return_inverse=True)
+    sums = np.zeros((int(inv.max()) + 1 if len(inv) else 0, d.shape[1]))
+    np.add.at(sums, inv, d)
+    return sums.T @ sums / max(len(d), 1) ** 2

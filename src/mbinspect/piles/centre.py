@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError
+from ..fit import clustered_cov
 from ..grid import cell_key
 from .results import plan_sigma
 
@@ -96,10 +97,7 @@ def centre_method(top: np.ndarray, *, radius: float, ks: float = 0.1, start: np.
     dev = (t[used, :2] - c[:2]) * (w / w.mean())[:, None]
     n = int(used.sum())
     if groups is not None:
-        _, inv = np.unique(np.asarray(groups)[used], return_inverse=True)
-        g = np.zeros((inv.max() + 1, 2))
-        np.add.at(g, inv, dev)
-        cov = g.T @ g / max(n, 1) ** 2
+        cov = clustered_cov(dev, np.asarray(groups)[used])
     else:
         cov = np.cov(dev.T) / max(n, 1) if n > 1 else np.full((2, 2), np.nan)
     return c, used, cov

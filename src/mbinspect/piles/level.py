@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import t as student_t
 
+from ..fit import clustered_cov
 from ..least_depth import LeastDepth, s44_order
 from .frame import decide
 from .pairs import Level
@@ -121,14 +122,11 @@ BEAM_BIN_DEG = 1.0
 def _cluster_var(values: np.ndarray, groups: np.ndarray) -> float:
     """The variance of the mean of ``values`` with ``groups`` as clusters (the soundings'
     own spread over their count when there are fewer than three clusters)."""
-    resid = values - values.mean()
     plain = float(values.var(ddof=1) / len(values))
-    _, inv = np.unique(groups, return_inverse=True)
-    g = int(inv.max()) + 1
+    g = len(np.unique(groups))
     if g < 3:
         return plain
-    sums = np.bincount(inv, weights=resid, minlength=g)
-    return max(plain, g / (g - 1) * float(np.sum(sums**2)) / len(values) ** 2)
+    return max(plain, g / (g - 1) * float(clustered_cov(values - values.mean(), groups)[0, 0]))
 
 
 @dataclass(frozen=True)
