@@ -104,3 +104,19 @@ def test_design_top_column(tmp_path: Path) -> None:
     f.write_text("id,x,y,top\n1,0,0,-16.0\n2,22,0,high\n")
     with pytest.raises(InputError, match=r"line 3, column 4 \(top\): 'high' is not a number"):
         read_design(f)
+
+
+def test_why_a_level_is_unknown_is_a_warning_only_where_levels_were_asked_for() -> None:
+    from mbinspect.piles import PileOptions
+    from mbinspect.piles.relate import relate_piles
+
+    piles = [_pile(1, -16.0, [(3, 0.01)]), _pile(2, -16.1, [(3, 0.02)])]  # one line reads both tops
+    covs = {1: np.eye(2) * 1e-6, 2: np.eye(2) * 1e-6}
+    plain = relate_piles(piles, covs, PileOptions(radius=0.75), design=None, parameters={}, warnings=[],
+                         rejected=[])
+    assert not plain.warnings and math.isnan(plain.piles[0].top_z_sigma)
+    assert "one line" in plain.piles[0].least["least_depth_note"]
+    asked = relate_piles(piles, covs, PileOptions(radius=0.75, min_clearance=10.0), design=None,
+                         parameters={}, warnings=[], rejected=[])
+    assert any("one line" in w for w in asked.warnings)
+    assert {p.least["least_depth_clearance"] for p in asked.piles} == {"undecided"}

@@ -67,6 +67,9 @@ def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: Pi
     """
     piles_t, remap, warn = apply_design(tuple(piles), design)
     piles_t = group_piles(piles_t, design, mode=opts.groups)
+    # why a level is unknown or a lower bound is a warning where levels were asked for (a
+    # design's tops, a clearance); otherwise each pile's record says it (its sigma, its note)
+    asked = bool(design is not None and design.tops) or opts.min_clearance is not None
     piles_t, levels, level_notes = pile_levels(piles_t, design.tops if design is not None else {},
                                                tolerance=opts.level_tolerance,
                                                min_clearance=opts.min_clearance)
@@ -84,7 +87,7 @@ def relate_piles(piles: Sequence[PileFit], covs: dict[int, np.ndarray], opts: Pi
     m = measured
     seg_info = m.segmentation if m is not None else {"intensity_threshold": {}, "piles": {}}
     return PileResult(piles_t, pairs, tuple(m.iterations if m else ()), parameters,
-                      tuple(warnings + warn + list(level_notes)),
+                      tuple(warnings + warn + (list(level_notes) if asked else [])),
                       {remap[k]: v for k, v in m.segments.items()} if m else {},
                       m.seabed if m else None,
                       {remap[k]: v for k, v in m.cylinders.items()} if m else {},
