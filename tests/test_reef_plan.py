@@ -98,3 +98,30 @@ def test_the_command_line_with_a_permit_area(planned, tmp_path: Path,
     assert "placement" in (out / "reefs.csv").read_text().splitlines()[0]
     assert main(["reefs", str(folder / "s.laz"), "--permit-area", wkt, "--out", str(tmp_path / "p")]) == 2
     assert "--permit-area" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("spec", "message"), [
+    ("POLYGON((1", r"--permit-area: '1' is not a list of x y pairs"),
+    ("POLYGON((1 2, 3 4))", r"2 vertices; expected a polygon of at least three"),
+    ('{"type": "Feature", "geometry": {"type": "Point", "coordinates": [1, 2]}}',
+     r"Point; expected a GeoJSON Polygon"),
+    ('{"type": ', r"not JSON"),
+])
+def test_a_bad_permit_area_is_one_clear_error(spec: str, message: str) -> None:
+    from mbinspect.reefs.plan import read_permit
+
+    with pytest.raises(InputError, match=message):
+        read_permit(spec)
+
+
+def test_a_permit_in_degrees_is_put_in_the_survey_crs() -> None:
+    from mbinspect.reefs.plan import permit_in, read_permit
+
+    geo = read_permit('{"type": "Polygon", "coordinates": [[[3.0, 51.0], [3.01, 51.0], [3.01, 51.01], '
+                      '[3.0, 51.0]]]}')
+    ring, note = permit_in(geo, "EPSG:32631", np.array([[500000.0, 5650000.0]]))
+    assert 490_000 < ring[0, 0] < 510_000 and 5_640_000 < ring[0, 1] < 5_660_000 and "EPSG:4326" in note
+    with pytest.raises(InputError, match="the survey has no CRS"):
+        permit_in(geo, None, np.array([[500000.0, 5650000.0]]))
+    wkt = read_permit("POLYGON ((10 10, 20 10, 20 20, 10 10))")
+    assert permit_in(wkt, None, np.array([[15.0, 15.0]]))[1] == "--permit-area in the survey's CRS"

@@ -100,11 +100,12 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
 def _plan(args: argparse.Namespace) -> Any:
     """The plan of ``--plan`` (read now: a bad row stops the run before it starts)."""
     from ..errors import ParameterError
-    from ..reefs.plan import read_plan
+    from ..reefs.plan import read_permit, read_plan
 
     if args.permit_area and not args.plan:
         raise ParameterError("permit_area: given without --plan; expected a plan to place the reefs by",
                              option="permit_area")
+    args.permit = read_permit(args.permit_area) if args.permit_area else None  # a bad polygon stops here
     return read_plan(args.plan) if args.plan else None
 
 
@@ -114,12 +115,12 @@ def _placed(result: Any, plan: Any, args: argparse.Namespace, options: Any) -> A
 
     import numpy as np
 
-    from ..reefs.plan import place_reefs, read_permit
+    from ..reefs.plan import permit_in, place_reefs
     from ..report import crs_of
 
-    if args.permit_area:
+    if args.permit is not None:
         xy = np.array([[u["x"], u["y"]] for u in plan.rows])
-        ring, note = read_permit(args.permit_area, crs_of(result), xy)
+        ring, note = permit_in(args.permit, crs_of(result), xy)
         plan = dataclasses.replace(plan, permit=ring, permit_source=note)
     return place_reefs(result, plan, tolerance=options.placement_tolerance,
                        position_sigma=options.position_sigma, bearing_sigma_deg=options.bearing_sigma_deg)

@@ -28,7 +28,7 @@ from ..errors import FileAccessError, InputError
 from ..geometry import crop_mask
 from .results import Reef, ReefResult
 
-__all__ = ["ReefPlan", "read_plan", "read_permit", "place_reefs"]
+__all__ = ["ReefPlan", "read_plan", "read_permit", "permit_in", "place_reefs"]
 
 #: The least reach (m) of a planned unit for its reef.
 MIN_REACH = 1.0
@@ -104,25 +104,46 @@ def _number(p: Path, lineno: int, head: list[str], cells: list[str], name: str) 
     return v
 
 
-def read_permit(spec: str, crs: str | None, survey_xy: np.ndarray) -> tuple[np.ndarray, str]:
-    """The permit area's polygon in the survey's CRS: a GeoJSON file (Polygon or the first
-    polygon of a MultiPolygon, Feature or FeatureCollection; WGS 84 as GeoJSON says, unless
-    it names another CRS) or WKT text (``POLYGON ((x y, ...))``, in the survey's CRS, or in
-    WGS 84 when every vertex is a longitude and latitude while the survey's coordinates
-    are not: said in the returned note).
+def read_permit(spec: str) -> tuple[np.ndarray, str | None, str]:
+    """The permit area as given: its ring, the CRS it names (GeoJSON: WGS 84 unless it names
+    another; WKT: None, the survey's or lon/lat, :func:`permit_in`), and where it came from.
+    Read before a run, so that a bad polygon stops it before it starts.
 
     Raises
     ------
     InputError
-        Not a polygon; degrees with a survey that has no CRS to put them in.
+        Not a polygon of at least three vertices.
     """
-    text = Path(spec).read_text(encoding="utf-8") if Path(spec).is_file() else spec
-    where = spec if Path(spec).is_file() else "--permit-area"
+    is_file = Path(spec).is_file()
+    text = Path(spec).read_text(encoding="utf-8") if is_file else spec
+    where = spec if is_file else "--permit-area"
     if text.lstrip().startswith("{"):
-        ring, src_crs = _geojson_ring(json.loads(text), where)
+        try:
+            obj = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{where}: not JSON ({exc.msg}, line {exc.lineno}); expected GeoJSON") from None
+        ring, src_crs = _geojson_ring(obj, where)
     else:
         ring, src_crs = _wkt_ring(text, where), None
-        lonlat = np.all(np.abs(ring[:, 0]) <= 180) and np.all(np.abs(ring[:, 1]) <= 90)
+    if ring.ndim != 2 or ring.shape[0] < 3 or ring.shape[1] < 2 or not np.isfinite(ring).all():
+        raise InputError(f"{where}: {len(ring)} vertices; expected a polygon of at least three x y pairs")
+    return ring[:, :2], src_crs, where
+
+
+def permit_in(permit: tuple[np.ndarray, str | None, str], crs: str | None, survey_xy: np.ndarray
+              ) -> tuple[np.ndarray, str]:
+    """The permit area (:func:`read_permit`) in the survey's CRS, and a note of how: a
+    polygon without a CRS is in the survey's, unless every vertex is a longitude and
+    latitude while the survey's coordinates are not (then WGS 84, said in the note).
+
+    Raises
+    ------
+    InputError
+        Degrees or a named CRS with a survey that has no CRS to put them in.
+    """
+    ring, src_crs, where = permit
+    if src_crs is None:
+        lonlat = bool(np.all(np.abs(ring[:, 0]) <= 180) and np.all(np.abs(ring[:, 1]) <= 90))
         src_crs = "EPSG:4326" if lonlat and np.abs(survey_xy).max() > 1000 else None
     if src_crs is None:
         return ring, f"{where} in the survey's CRS"
@@ -136,7 +157,9 @@ def read_permit(spec: str, crs: str | None, survey_xy: np.ndarray) -> tuple[np.n
     return np.column_stack([x, y]), f"{where} in {src_crs}, put in the survey's CRS"
 
 
-def _geojson_ring(obj: dict[str, Any], where: str) -> tuple[np.ndarray, str | None]:
+def _geojson_ring(obj: Any, where: str) -> tuple[np.ndarray, str | None]:
+    if not isinstance(obj, dict):
+        raise InputError(f"{where}: a JSON {type(obj).__name__}; expected a GeoJSON object")
     crs = ((obj.get("crs") or {}).get("properties") or {}).get("name") or "EPSG:4326"
     geom = obj
     if obj.get("type") == "FeatureCollection" and obj.get("features"):
@@ -147,20 +170,26 @@ def _geojson_ring(obj: dict[str, Any], where: str) -> tuple[np.ndarray, str | No
     if geom.get("type") == "MultiPolygon" and coords:
         coords = coords[0]
     if geom.get("type") not in ("Polygon", "MultiPolygon") or not coords:
-        raise InputError(f"{where}: a {geom.get('type')!r} geometry; expected a Polygon")
-    return np.asarray(coords[0], np.float64)[:, :2], crs
+        kind = geom.get("type") or "no GeoJSON geometry"
+        raise InputError(f"{where}: {kind}; expected a GeoJSON Polygon (or a Feature holding one)")
+    try:
+        return np.asarray(coords[0], np.float64), crs
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: the polygon's coordinates are not x y pairs") from None
 
 
 def _wkt_ring(text: str, where: str) -> np.ndarray:
     t = text.strip()
-    if not t.upper().startswith("POLYGON"):
+    if not t.upper().startswith("POLYGON") or "(" not in t:
         raise InputError(f"{where}: {t[:40]!r}; expected a GeoJSON file or WKT POLYGON ((x y, ...))")
-    inner = t[t.index("(") :].strip("() \n")
-    first = inner.split(")")[0].strip("( ")
+    first = t[t.index("(") :].strip("() \n").split(")")[0].strip("( ")
     try:
-        return np.array([[float(v) for v in pair.split()[:2]] for pair in first.split(",")])
+        pairs = [[float(v) for v in pair.split()] for pair in first.split(",")]
     except ValueError:
         raise InputError(f"{where}: {first[:60]!r} is not a list of x y pairs") from None
+    if any(len(xy) < 2 for xy in pairs):
+        raise InputError(f"{where}: {first[:60]!r} is not a list of x y pairs")
+    return np.array([xy[:2] for xy in pairs])
 
 
 def place_reefs(result: ReefResult, plan: ReefPlan, *, tolerance: float, position_sigma: float,
