@@ -35,8 +35,8 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
     -------
     cloud : PointCloud
         World coordinates (``scene.origin`` added) with fields ``intensity``,
-        ``beam_angle`` (deg, + starboard), ``line`` (1-based), ``ping`` and ``time`` (UTC,
-        s since 1970); heights from the water level at each ping when the sonar has a tide.
+        ``beam_angle`` (deg, + starboard), ``line`` (1-based), ``ping``, and with a tide
+        ``time`` (UTC, s since 1970) and heights from the water level at each ping.
     label : ndarray of int8, shape (N,)
         What each sounding hit (:data:`LABELS`).
     ident : ndarray of int32, shape (N,)
@@ -62,8 +62,10 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
     xyz, intensity, angle, line, ping, label, ident, utc = cols
     xyz[:, 0] += scene.origin[0]
     xyz[:, 1] += scene.origin[1]
-    cloud = PointCloud(xyz, {"intensity": intensity, "beam_angle": angle, "line": line, "ping": ping,
-                             "time": utc})
+    fields = {"intensity": intensity, "beam_angle": angle, "line": line, "ping": ping}
+    if sonar.tide_range or sonar.tide_mean:  # the times a tide is applied by (else no time, as before)
+        fields["time"] = utc
+    cloud = PointCloud(xyz, fields)
     return cloud, label, ident
 
 
