@@ -24,9 +24,10 @@ from typing import Any
 
 import numpy as np
 
-from .errors import NotEnoughPointsError, ParameterError
+from .errors import FileAccessError, InputError, NotEnoughPointsError, ParameterError
 
 __all__ = [
+    "csv_rows",
     "fail",
     "positive",
     "non_negative",
@@ -293,3 +294,37 @@ def numbers(name: str, values: Sequence[Any]) -> tuple[float, ...]:
     tuple of float
     """
     return tuple(finite(name, v) for v in values)
+
+
+def csv_rows(path: Any, kind: str, expected: str) -> tuple[list[str], list[tuple[int, list[str]]]]:
+    """A small CSV table a user gives (a tide, a plan): its header, lower-cased, and its rows
+    with their line numbers; blank and ``#`` lines skipped, Excel's BOM read.
+
+    Parameters
+    ----------
+    path : path-like
+    kind : str
+        What the file is, for the messages ("tide file").
+    expected : str
+        What it should hold ("a header time,height and rows").
+
+    Raises
+    ------
+    FileAccessError
+        No such file, or a folder.
+    InputError
+        No header.
+    """
+    import csv
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise FileAccessError(f"{p}: no such {kind}" if not p.exists() else f"{p}: is a directory, "
+                              f"expected {expected}")
+    with open(p, newline="", encoding="utf-8-sig") as fh:
+        rows = [(k, [c.strip() for c in r]) for k, r in enumerate(csv.reader(fh), start=1)
+                if any(c.strip() for c in r) and not r[0].strip().startswith("#")]
+    if not rows:
+        raise InputError(f"{p}: the {kind} is empty; expected {expected}")
+    return [h.lower() for h in rows[0][1]], rows

@@ -21,7 +21,6 @@ Examples
 
 from __future__ import annotations
 
-import csv
 import datetime as dt
 import functools
 import math
@@ -31,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FileAccessError, InputError, ParameterError
+from .checks import csv_rows
+from .errors import InputError, ParameterError
 from .formats.ascii_sniff import parse_time
 
 __all__ = ["Tide", "read_tide", "VerticalReference", "vertical_reference", "as_given"]
@@ -89,15 +89,7 @@ def read_tide(path: str | Path) -> Tide:
         that do not rise.
     """
     p = Path(path)
-    if not p.is_file():
-        raise FileAccessError(f"{p}: no such tide file" if not p.exists() else f"{p}: is a directory, "
-                              "expected a tide CSV (time,height)")
-    with open(p, newline="", encoding="utf-8-sig") as fh:
-        rows = [(k, [c.strip() for c in r]) for k, r in enumerate(csv.reader(fh), start=1)
-                if any(c.strip() for c in r) and not r[0].strip().startswith("#")]
-    if not rows:
-        raise InputError(f"{p}: the tide file is empty; expected a header time,height and rows")
-    head = [h.lower() for h in rows[0][1]]
+    head, rows = csv_rows(p, "tide file", "a tide CSV: a header time,height and rows")
     hcol = next((head.index(n) for n in ("height", "tide", "level", "water_level") if n in head), None)
     if "time" not in head or hcol is None:
         raise InputError(f"{p}, line {rows[0][0]}: header {rows[0][1]}; expected columns time and height")

@@ -14,7 +14,6 @@ cm RMS with a design fit, 4 cm without; the positioning adds), its bearing to
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from dataclasses import dataclass, field, replace
@@ -24,7 +23,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..errors import FileAccessError, InputError
+from ..checks import csv_rows
+from ..errors import InputError
 from ..geometry import crop_mask
 from .results import Reef, ReefResult
 
@@ -57,15 +57,7 @@ def read_plan(path: str | Path) -> ReefPlan:
         A bad row: the message names the line and column.
     """
     p = Path(path)
-    if not p.is_file():
-        raise FileAccessError(f"{p}: no such plan file" if not p.exists() else f"{p}: is a directory, "
-                              "expected a reef plan CSV (id,x,y)")
-    with open(p, newline="", encoding="utf-8-sig") as fh:
-        rows = [(k, [c.strip() for c in r]) for k, r in enumerate(csv.reader(fh), start=1)
-                if any(c.strip() for c in r) and not r[0].strip().startswith("#")]
-    if not rows:
-        raise InputError(f"{p}: the plan is empty; expected a header id,x,y and a row per unit")
-    head = [h.lower() for h in rows[0][1]]
+    head, rows = csv_rows(p, "plan file", "a reef plan CSV: a header id,x,y and a row per unit")
     if not {"id", "x", "y"} <= set(head):
         raise InputError(f"{p}, line {rows[0][0]}: header {rows[0][1]}; expected columns id,x,y"
                          "[,bearing_deg][,kind][,group]")
