@@ -170,7 +170,7 @@ class VerticalReference:
             return "heights " + AS_GIVEN
         parts = ["the files' heights"]
         if self.tide is None and not self.offset:
-            return "chart datum: the files' heights, stated to be on it (--datum-offset 0)"
+            return "stated datum: the files' heights, stated to be on it (--datum-offset 0)"
         if self.tide is not None:
             parts.append(f"the tide of {self.tide} (water level above chart datum, by each sounding's "
                          "UTC time)")
