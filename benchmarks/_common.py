@@ -100,6 +100,16 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
     return "\n".join([line, sep, *body])
 
 
+def own_flags(parser: Any) -> Any:
+    """A study's own flags (``parser``, an ``argparse.ArgumentParser(add_help=False)`` the
+    study filled), parsed; the rest left in ``sys.argv`` for :func:`run_study`."""
+    import sys
+
+    known, rest = parser.parse_known_args()
+    sys.argv = [sys.argv[0], *rest]
+    return known
+
+
 def run_study(description: str | None, configs: Sequence[str], default_seeds: int,
               run_one: Callable[[tuple[str, int]], list[dict]]) -> tuple[list[str], list[dict]]:
     """Parse ``--seeds --configs --workers``, run ``run_one((config, seed))`` for every pair

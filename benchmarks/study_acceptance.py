@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import run_study, table  # noqa: E402
+from _common import own_flags, run_study, table  # noqa: E402
 from mbinspect.datum import vertical_reference  # noqa: E402
 from mbinspect.errors import MBInspectError  # noqa: E402
 from mbinspect.io import on_reference  # noqa: E402
@@ -131,8 +131,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(add_help=False)
     ap.add_argument("--real", action="store_true")
     ap.add_argument("--placements", type=int, default=3)
-    known, rest = ap.parse_known_args()
-    sys.argv = [sys.argv[0], *rest]
+    known = own_flags(ap)
     chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
     rows, least_rows = [], []
     for c in chosen:

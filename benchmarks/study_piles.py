@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import run_study, table  # noqa: E402
+from _common import own_flags, run_study, table  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 
@@ -117,8 +117,7 @@ def main() -> None:
 
     ap = argparse.ArgumentParser(add_help=False)
     ap.add_argument("--ablation", action="store_true")
-    known, rest = ap.parse_known_args()
-    sys.argv = [sys.argv[0], *rest]
+    known = own_flags(ap)
     if known.ablation:  # the environment reaches the pool's workers however they start
         os.environ[ABLATION_ENV] = "1"
         VARIANTS.update(ABLATION)
