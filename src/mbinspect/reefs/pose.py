@@ -94,6 +94,11 @@ class DesignFit:
     outline: np.ndarray = field(repr=False, compare=False)
     origin: tuple[float, float] = field(default=(math.nan, math.nan), repr=False, compare=False)
 
+    @property
+    def pose(self) -> tuple[float, float, float, float]:
+        """The design frame's origin, bearing and scale: (x, y, bearing_deg, scale)."""
+        return (*self.origin, self.bearing_deg, self.scale)
+
     def to_dict(self) -> dict[str, Any]:
         return to_jsonable({k: getattr(self, k) for k in ("design", "x", "y", "bearing_deg", "scale",
                                                            "area", "misfit", "n_edge")})

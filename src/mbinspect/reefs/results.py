@@ -43,15 +43,22 @@ class Reef:
     least: dict[str, Any] = field(default_factory=dict)
     buried_share: float = math.nan
     plan: dict[str, Any] = field(default_factory=dict)
+    top_tilt_deg: float = math.nan
+    top_tilt_sigma_deg: float = math.nan
+    resting: str = ""
+    overturned: bool | None = None
+    resting_misfit: float = math.nan
+    resting_note: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``reefs.json`` (``outline``: the footprint polygon, m; the least depth's
-        ``least_depth*`` keys, :meth:`~mbinspect.least_depth.LeastDepth.fields`)."""
+        ``least_depth*`` keys, :meth:`~mbinspect.least_depth.LeastDepth.fields`; how it rests,
+        :mod:`~mbinspect.reefs.orient`)."""
         d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
                                              "length", "width", "orientation_deg", "volume",
                                              "envelope_volume", "n_points", "group", "design",
                                              "design_scale", "design_bearing_deg", "design_misfit",
-                                             "buried_share")}
+                                             "buried_share", *REST_KEYS)}
         d.update(self.least)
         d.update(self.plan)
         d["outline"] = [list(v) for v in self.outline]
@@ -63,6 +70,10 @@ class Reef:
         """The reef of a ``reefs.json`` row (:meth:`to_dict`'s inverse)."""
         return record_from(cls, d, least=least_of(d), plan={k: d[k] for k in PLAN_KEYS if k in d})
 
+
+#: The keys of how a reef rests (:func:`~mbinspect.reefs.orient.with_rest`).
+REST_KEYS = ("top_tilt_deg", "top_tilt_sigma_deg", "resting", "overturned", "resting_misfit",
+             "resting_note")
 
 #: The keys of a reef's placement against the plan (:mod:`mbinspect.reefs.plan`).
 PLAN_KEYS = ("plan_id", "plan_dx", "plan_dy", "plan_offset", "plan_offset_sigma", "placement",

@@ -4,6 +4,7 @@ apart (:func:`reef_islands`), so that time and memory follow the reef points."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
@@ -17,8 +18,9 @@ from .fit_design import fit_reef_design, join_by_design, share_by_design, with_d
 from .footprint import Raster
 from .ground import Seabed
 from .least import with_least_depth
-from .measure import measure_reef
+from .measure import measure_reef, soundings_around
 from .options import ReefOptions
+from .orient import overturned_unit, with_rest
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
 from .results import OtherObject, Reef
 from .shape import ground_soundings
@@ -161,16 +163,26 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
                                             context, clear, noise), small_note)
               for p, m in zip(small, _members(points, is_reef, raster, small), strict=True)]
     kept, kept_members = [], []
-    for r, f, p, m in zip(reefs, free, parts, _members(points, is_reef, raster, parts), strict=True):
+    poses = [None if f is None else f.pose for f in fits] if designs else [None] * len(parts)
+    for r, f, p, m, pose in zip(reefs, free, parts, _members(points, is_reef, raster, parts), poses,
+                                strict=True):
         r = with_least_depth(r, m, context, clear, noise)
         f = replace(f, least=r.least)  # the same soundings: the same least depth
+        around = soundings_around(raster, *np.divmod(p, raster.labels.shape[1]), 6)
+        rest = functools.partial(with_rest, rows=around, own=m, points=points, height=height,
+                                 designs=designs, noise=noise or 0.05, ping=ping)
+        r = rest(r, pose=pose)
         misfit = design_misfit(Candidate(r, p), context, options)
         if misfit:  # no design given fits it: its free-form measures, judged by its shape
-            r = f
+            r = rest(f) if designs else f  # every design, every way it may lie
             why = why_not_a_reef(Candidate(f, p), context, options)
             why = f"{misfit}; as a free-form object: {why}" if why else None
         else:
             why = why_not_a_reef(Candidate(r, p), context, options)
+            if why and designs and r.design:
+                r = rest(f)
+        if (misfit or why) and overturned_unit(r, designs):  # on its side or upside down
+            why = None
         if why:
             others.append(other_object(r, why))
         else:

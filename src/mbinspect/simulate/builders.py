@@ -11,10 +11,12 @@ from typing import Any
 import numpy as np
 
 from ..checks import fail
+from ..design_solids import distinct_orientations
 from ..errors import ParameterError
 from ..geometry import (
     bearing_to_vector,
 )
+from ..reef_designs import BUILTIN_DESIGNS
 from .presets import (
     JacketOptions,
     ReefFieldOptions,
@@ -132,7 +134,8 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
     # one sink per reef id, drawn up front so that a reef rebuilt for the shore (below) keeps
     # its own; the table's size bounds the ids, not the field (ids stay in the hundreds)
     sunk = rng.uniform(0.0, opt.burial_max, 10_000) if opt.burial_max > 0 else np.zeros(10_000)
-    make = functools.partial(_make_reef, seabed, sunk, opt.reef_scale)
+    rest = _Rest(sunk, *_poses(opt, len(kinds) * opt.per_group, rng))
+    make = functools.partial(_make_reef, seabed, rest, opt.reef_scale)
     nominal: dict[int, tuple[float, float, float | None]] = {}
     reefs = _place_groups(kinds, cols, rows, opt, rng, make, nominal)
     _bring_together(reefs, opt, rng, make)
@@ -141,7 +144,7 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
     if opt.shore_width > 0:
         seabed = dataclasses.replace(seabed, shore_start=float(hi[1]) + 3.0,
                                      shore_width=opt.shore_width)
-        make = functools.partial(_make_reef, seabed, sunk, opt.reef_scale)
+        make = functools.partial(_make_reef, seabed, rest, opt.reef_scale)
         reefs = [make(r.id, r.kind, r.x, r.y, r.bearing_deg, r.group) for r in reefs]
     survey_hi = hi + np.array([0.0, opt.shore_width])
     boulders, debris = _distractors(opt, rng, seabed, lo, hi, xy)
@@ -162,11 +165,42 @@ def build_reef_field(opt: ReefFieldOptions, rng: np.random.Generator, sonar: Son
     return scene, Survey(tuple(lines), sonar), {"plan": plan}
 
 
-def _make_reef(seabed: Seabed, sunk: np.ndarray, scale: float, rid: int, kind: str, x: float, y: float,
+@dataclasses.dataclass(frozen=True)
+class _Rest:
+    """How each reef id comes to rest: its burial, orientation and lean (tables by id)."""
+
+    sunk: np.ndarray
+    overturned: dict[int, str]
+    tilt: np.ndarray
+    tilt_bearing: np.ndarray
+
+
+def _poses(opt: ReefFieldOptions, n: int, rng: np.random.Generator
+           ) -> tuple[dict[int, str], np.ndarray, np.ndarray]:
+    """Which reef ids lie overturned (and how: one of their kind's distinct orientations),
+    and each id's lean; drawn only when asked, so that other scenes keep their randomness."""
+    zeros = np.zeros(10_000)
+    if not (opt.overturned or opt.tilt_max_deg):
+        return {}, zeros, zeros
+    sub = np.random.default_rng(int(rng.integers(2**31)))
+    ids = sub.choice(np.arange(1, n + 1), size=min(opt.overturned, n), replace=False)
+    ways = [str(w) for w in sub.integers(0, 1_000_000, len(ids))]
+    tilt = sub.uniform(0.0, opt.tilt_max_deg, 10_000) if opt.tilt_max_deg else zeros
+    return dict(zip(ids.tolist(), ways, strict=True)), tilt, sub.uniform(0.0, 360.0, 10_000)
+
+
+def _make_reef(seabed: Seabed, rest: _Rest, scale: float, rid: int, kind: str, x: float, y: float,
                b: float, g: int) -> Reef:
-    """A reef standing on the seabed at (x, y), sunk 0.1 m and its own further burial."""
-    z = float(seabed.elevation(x, y)) - 0.1 - float(sunk[rid % len(sunk)])
-    return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, scale), group=g)
+    """A reef resting on the seabed at (x, y), sunk 0.1 m and its own further burial, in
+    its orientation and lean."""
+    z = float(seabed.elevation(x, y)) - 0.1 - float(rest.sunk[rid % len(rest.sunk)])
+    way = "upright"
+    if rid in rest.overturned:
+        ways = [w for w in distinct_orientations(BUILTIN_DESIGNS[kind]) if w != "upright"]
+        way = ways[int(rest.overturned[rid]) % len(ways)] if ways else "upright"
+    tilt, toward = float(rest.tilt[rid % len(rest.tilt)]), float(rest.tilt_bearing[rid % len(rest.tilt)])
+    return Reef(rid, kind, x, y, b, reef_boxes(kind, x, y, b, z, scale, way, tilt, toward), group=g,
+                orientation=way, tilt_deg=tilt, tilt_bearing_deg=toward)
 
 
 def _place_groups(kinds: list[str], cols: int, rows: int, opt: ReefFieldOptions, rng: np.random.Generator,

@@ -98,6 +98,10 @@ class ReefFieldOptions(Options):
     burial_max: float = option(0.0, unit="m", check="non_negative",
                                help="reefs sunk a further 0 to this many m into the seabed")
     debris: int = option(4, help="distractor debris items (< 1 m^2)", check="whole")
+    overturned: int = option(0, check="whole",
+                             help="units at rest on their side or upside down (each design's distinct ways)")
+    tilt_max_deg: float = option(0.0, unit="deg", check="non_negative",
+                                 help="units lean 0 to this many degrees (resting on a rock or an edge)")
     shore_width: float = option(0.0, unit="m", check="non_negative",
                                 help="a steep rocky shore rising over this width north of the "
                                      "reefs (0: none)")

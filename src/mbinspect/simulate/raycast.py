@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry import bearing_to_vector, ray_cylinder
+from ..geometry import ray_cylinder
+from ..solids import ray_box
 from .scene import LABELS, Boulder, Box, Pile, Scene, Seabed
 
 
@@ -46,28 +47,7 @@ def _hit_cylinder(pile: Pile, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray,
 
 
 def _hit_box(box: Box, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    u = bearing_to_vector(box.bearing_deg)
-    w = np.array([u[1], -u[0]])
-    rot = np.array([[u[0], u[1], 0.0], [w[0], w[1], 0.0], [0.0, 0.0, 1.0]])
-    ol = (o - np.array([box.cx, box.cy, box.z0])) @ rot.T
-    dl = d @ rot.T
-    lo = np.array([-box.length / 2, -box.width / 2, 0.0])
-    hi = np.array([box.length / 2, box.width / 2, box.height])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = (lo - ol) / dl
-        t2 = (hi - ol) / dl
-    tmin = np.fmin(t1, t2)
-    tmax = np.fmax(t1, t2)
-    tmin = np.where(np.isnan(tmin), -np.inf, tmin)
-    tmax = np.where(np.isnan(tmax), np.inf, tmax)
-    near_axis = np.argmax(tmin, axis=1)
-    tnear = tmin[np.arange(len(ol)), near_axis]
-    tfar = tmax.min(axis=1)
-    ok = (tnear <= tfar) & (tnear > 0)
-    t = np.where(ok, tnear, np.inf)
-    nl = np.zeros_like(ol)
-    nl[np.arange(len(ol)), near_axis] = -np.sign(dl[np.arange(len(ol)), near_axis])
-    return t, nl @ rot
+    return ray_box(*box.solid(), o, d)
 
 
 def _hit_sphere(b: Boulder, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -147,7 +127,7 @@ def _bind(fn: Callable[[Any, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarr
 def _box_target(box: Box, kind: int, ident: int, material: str) -> Target:
     c = box.corners2d()
     lo, hi = c.min(axis=0), c.max(axis=0)
-    return Target(kind, ident, material, (lo[0], hi[0], lo[1], hi[1]), box.z0 + box.height,
+    return Target(kind, ident, material, (lo[0], hi[0], lo[1], hi[1]), box.top,
                    _bind(_hit_box, box))
 
 

@@ -10,13 +10,17 @@ from typing import Any
 
 import numpy as np
 
+from ..design_solids import design_solids
 from ..errors import ParameterError
 from ..geometry import (
     bearing_to_vector,
+    convex_hull,
     polygon_distance,
     rectangle_corners,
+    vector_to_bearing,
 )
 from ..reef_designs import BUILTIN_DESIGNS
+from ..solids import box_corners
 
 #: Meaning of the per-sounding truth label.
 LABELS = {"seabed": 0, "pile": 1, "reef": 2, "boulder": 3, "debris": 4, "outlier": 5}
@@ -165,7 +169,11 @@ class Pile:
 
 @dataclass(frozen=True)
 class Box:
-    """An oriented box: base centre (local cx, cy, z0), length along ``bearing_deg``."""
+    """An oriented box: base centre (local cx, cy, z0), length along ``bearing_deg``.
+
+    ``axes`` (9 numbers: the length, width and height directions as rows) turns it any way
+    in space (a unit on its side or tilted); empty, it stands upright at its bearing.
+    """
 
     cx: float
     cy: float
@@ -174,14 +182,35 @@ class Box:
     width: float
     height: float
     bearing_deg: float = 0.0
+    axes: tuple[float, ...] = ()
+
+    def frame(self) -> np.ndarray:
+        """The box's axes as rows (3, 3), world frame."""
+        if self.axes:
+            return np.asarray(self.axes, np.float64).reshape(3, 3)
+        u = bearing_to_vector(self.bearing_deg)
+        return np.array([[u[0], u[1], 0.0], [u[1], -u[0], 0.0], [0.0, 0.0, 1.0]])
+
+    def solid(self) -> tuple[np.ndarray, np.ndarray, tuple[float, float, float]]:
+        """(base, axes, size) as :mod:`mbinspect.solids` takes a box."""
+        return np.array([self.cx, self.cy, self.z0]), self.frame(), (self.length, self.width, self.height)
+
+    @property
+    def top(self) -> float:
+        """The highest corner's elevation (m)."""
+        return float(box_corners(*self.solid())[:, 2].max()) if self.axes else self.z0 + self.height
 
     def corners2d(self) -> np.ndarray:
+        if self.axes:
+            return convex_hull(box_corners(*self.solid())[:, :2])
         return rectangle_corners(self.cx, self.cy, self.length, self.width, self.bearing_deg)
 
 
 @dataclass(frozen=True)
 class Reef:
-    """An artificial reef: a union of boxes placed at (x, y) with a bearing."""
+    """An artificial reef: a union of boxes placed at (x, y) with a bearing, at rest in an
+    orientation (:data:`mbinspect.design_solids.ORIENTATIONS`) and leaning ``tilt_deg``
+    toward ``tilt_bearing_deg``."""
 
     id: int
     kind: str
@@ -191,6 +220,9 @@ class Reef:
     boxes: tuple[Box, ...]
     group: int = 0
     material: str = "concrete"
+    orientation: str = "upright"
+    tilt_deg: float = 0.0
+    tilt_bearing_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -227,7 +259,8 @@ class Scene:
     origin: tuple[float, float] = (0.0, 0.0)
 
 
-def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float, scale: float = 1.0
+def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float, scale: float = 1.0,
+               orientation: str = "upright", tilt_deg: float = 0.0, tilt_bearing_deg: float = 0.0
                ) -> tuple[Box, ...]:
     """The boxes of one reef design placed at local (x, y) with its base at ``z_base``.
 
@@ -244,6 +277,9 @@ def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float,
     z_base : float
         Base elevation (m).
     scale : float
+    orientation, tilt_deg, tilt_bearing_deg
+        How the unit came to rest (:func:`mbinspect.design_solids.design_solids`); the
+        base is then its lowest corner.
 
     Returns
     -------
@@ -253,7 +289,13 @@ def reef_boxes(kind: str, x: float, y: float, bearing_deg: float, z_base: float,
         raise ParameterError(
             f"reef kind {kind!r} is unknown; expected {', '.join(BUILTIN_DESIGNS)}"
         )
-    return tuple(Box(*b) for b in BUILTIN_DESIGNS[kind].placed(x, y, bearing_deg, z_base, scale))
+    if orientation == "upright" and not tilt_deg:
+        return tuple(Box(*b) for b in BUILTIN_DESIGNS[kind].placed(x, y, bearing_deg, z_base, scale))
+    solids = design_solids(BUILTIN_DESIGNS[kind], orientation, x, y, bearing_deg, z_base, scale,
+                           tilt_deg, tilt_bearing_deg)
+    return tuple(Box(float(b[0]), float(b[1]), float(b[2]), *size,
+                     bearing_deg=vector_to_bearing(a[0, :2]) if np.hypot(*a[0, :2]) > 1e-9 else 0.0,
+                     axes=tuple(float(v) for v in a.ravel())) for b, a, size in solids)
 
 
 def reef_gap(a: Reef, b: Reef) -> float:

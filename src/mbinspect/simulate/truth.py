@@ -16,6 +16,7 @@ from ..geometry import (
     min_area_rectangle,
     polygon_area,
 )
+from ..solids import upper_surface
 from .scene import LABELS, Reef, Scene, Seabed, reef_gap
 from .sonar import Sonar
 
@@ -36,7 +37,11 @@ def reef_truth(reef: Reef, seabed: Seabed, origin: tuple[float, float], cell: fl
     X, Y = np.meshgrid(gx, gy)
     pts = np.column_stack([X.ravel(), Y.ravel()])
     top = np.full(len(pts), -np.inf)
+    if any(bx.axes for bx in reef.boxes):  # turned in space: the upper surface seen from above
+        top = upper_surface([bx.solid() for bx in reef.boxes], pts)
     for bx in reef.boxes:
+        if bx.axes:
+            continue
         u = bearing_to_vector(bx.bearing_deg)
         rel = pts - np.array([bx.cx, bx.cy])
         inside = (np.abs(rel @ u) <= bx.length / 2) & (np.abs(rel @ np.array([u[1], -u[0]]))
@@ -48,7 +53,7 @@ def reef_truth(reef: Reef, seabed: Seabed, origin: tuple[float, float], cell: fl
     area = covered.sum() * cell * cell
     centre = fp.mean(axis=0)
     z_sea = float(seabed.elevation(centre[0], centre[1]))
-    z_top = float(max(bx.z0 + bx.height for bx in reef.boxes))
+    z_top = float(max(bx.top for bx in reef.boxes))
     rect = min_area_rectangle(corners)
     hull = convex_hull(corners)
     height = z_top - z_sea
@@ -60,6 +65,8 @@ def reef_truth(reef: Reef, seabed: Seabed, origin: tuple[float, float], cell: fl
         "volume": float(np.sum(np.maximum(top[covered] - sea, 0.0)) * cell * cell),
         "envelope_volume": rect.length * rect.width * height,
         "bearing_deg": reef.bearing_deg % 360.0,
+        "orientation": reef.orientation, "overturned": reef.orientation != "upright",
+        "top_tilt_deg": reef.tilt_deg,
         "outline": (hull + np.array(origin)).round(4).tolist(),
         "boxes": [dict(dataclasses.asdict(bx), cx=bx.cx + origin[0], cy=bx.cy + origin[1])
                   for bx in reef.boxes],

@@ -1,0 +1,285 @@
+"""How each reef unit rests: the tilt of its top plane, and whether it stands upright or lies
+on its side or upside down (the design compared with the soundings in every orientation the
+design allows).
+
+A unit dropped badly lies on its side or upside down; one that landed on a rock or on the
+edge of a scour hole leans. The top plane is fitted to the unit's highest soundings (the
+cells of its upper surface that one plane holds, then every sounding within the noise of
+it); its tilt's 1-sigma comes from the soundings' spread about it, pings counted as
+clusters. The orientation: the design's upper surface in each orientation that looks
+different from above (:func:`mbinspect.design_solids.distinct_orientations`) placed over
+the soundings at the best bearing and position, the cells' highest soundings against the
+design's surface at the same soundings; the orientation that leaves the least misfit wins,
+and a unit is called overturned only when its best orientation beats upright by a clear
+margin. A design that looks alike every way (a solid cube) cannot tell: ``overturned`` is
+then None.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..design_solids import distinct_orientations, sample, surface_map
+from ..reef_designs import ReefDesign
+from .results import Reef
+from .tilt import CELL, cells_of, top_plane, top_tilt
+
+__all__ = ["Rest", "rest_of", "with_rest", "overturned_unit",
+           "OVERTURNED_MARGIN", "OVERTURNED_FIT"]
+
+#: How much better (a share of the design's height, mean absolute) an orientation other
+#: than upright must fit before a unit is called overturned ...
+OVERTURNED_MARGIN = 0.05
+
+#: ... and the share of the cells where the two differ (by a quarter of the height) whose
+#: soundings must lie nearer the overturned one (measured: ``benchmarks/study_rest.py``).
+OVERTURNED_SHARE = 0.6
+
+#: Fewest cells where upright and overturned differ for the orientation to be told.
+_MIN_DIFFER = 8
+
+#: The steepest top (degrees) taken for a lean and levelled before the orientations are
+#: compared; a steeper one is a face of a unit on its side, not a lean.
+_LEVEL_MAX = 20.0
+
+
+
+@dataclass(frozen=True)
+class Rest:
+    """How one unit rests.
+
+    Attributes
+    ----------
+    design : str
+        The design compared ("" when none was).
+    resting : str
+        The orientation that fits best ("upright", "upside down", "on its side", ...).
+    overturned : bool or None
+        None when the design looks alike every way, or no design was compared.
+    misfit, upright_misfit, turned_misfit : float
+        Mean absolute difference (m) of the cells' highest soundings from the design's
+        upper surface, in the best orientation, upright, and the best other than upright.
+    x, y, bearing_deg : float
+        The design's centre and bearing in the best orientation.
+    top_tilt_deg, top_tilt_sigma_deg : float
+        The top plane's tilt from level and its 1-sigma; NaN when the top is too small.
+    note : str
+        Why something could not be said.
+    """
+
+    design: str = ""
+    resting: str = ""
+    overturned: bool | None = None
+    misfit: float = math.nan
+    upright_misfit: float = math.nan
+    turned_misfit: float = math.nan
+    x: float = math.nan
+    y: float = math.nan
+    bearing_deg: float = math.nan
+    top_tilt_deg: float = math.nan
+    top_tilt_sigma_deg: float = math.nan
+    note: str = ""
+    turned_share: float = math.nan
+    n_differ: int = 0
+
+
+class _Window:
+    """The soundings around one unit, their cells and their heights with the unit's top
+    plane taken out (so that a leaning unit is compared level)."""
+
+    def __init__(self, xy: np.ndarray, h: np.ndarray) -> None:
+        self.xy = xy
+        self.order, self.starts = cells_of(xy, CELL)
+        self.measured = np.maximum.reduceat(h[self.order], self.starts)
+
+    def surface(self, design: ReefDesign, orientation: str, x: float, y: float, bearing: float,
+                scale: float, tall: float) -> np.ndarray:
+        """The design's surface over each cell (its highest at the cell's soundings), sunk or
+        lifted (a unit on a rock or its own edge) as far as fits the soundings (up to 30 %
+        of its height); NaN off the design."""
+        d = np.maximum.reduceat(sample(design, orientation, self.xy[self.order], x, y, bearing, scale),
+                                self.starts)
+        m = self.measured
+        on = d > 0
+        both = on & (m > 0.1 * tall)
+        sink = float(np.clip(np.median(d[both] - m[both]), -0.3 * tall, 0.3 * tall)) if both.any() else 0.0
+        return np.where(on, np.maximum(d - sink, 0.0), np.nan)
+
+    def misfit(self, design: ReefDesign, orientation: str, x: float, y: float, bearing: float,
+               scale: float, tall: float) -> float:
+        """Mean absolute difference (m) of the cells' highest soundings from the design's
+        surface (:meth:`surface`), over the cells either stands in."""
+        d = self.surface(design, orientation, x, y, bearing, scale, tall)
+        m = self.measured
+        used = np.isfinite(d) | (m > 0.2 * tall)
+        if not used.any():
+            return math.inf
+        return float(np.mean(np.abs(m[used] - np.nan_to_num(d[used]))))
+
+    def preference(self, a: np.ndarray, b: np.ndarray, tall: float) -> tuple[float, int]:
+        """Of the cells where two surfaces (:meth:`surface`) differ by more than a quarter
+        of the height, the share whose soundings lie nearer ``b``, and how many there are."""
+        a, b = np.nan_to_num(a), np.nan_to_num(b)
+        differ = np.abs(a - b) > 0.25 * tall
+        if not differ.any():
+            return math.nan, 0
+        m = self.measured[differ]
+        return float(np.mean(np.abs(m - b[differ]) < np.abs(m - a[differ]))), int(differ.sum())
+
+
+def _best_pose(win: _Window, design: ReefDesign, orientation: str, x: float, y: float, scale: float,
+               bearings: np.ndarray) -> tuple[float, float, float, float]:
+    """The bearing and position of least misfit: a coarse sweep of ``bearings``, then finer
+    turns and shifts about the best. Returns misfit, x, y, bearing."""
+    tall = design.height * scale
+    best = min((win.misfit(design, orientation, x, y, b, scale, tall), x, y, float(b)) for b in bearings)
+    for step_b, step_xy in ((2.0, 0.15), (1.0, 0.05)):
+        _, bx, by, bb = best
+        for db in (-2, -1, 1, 2):
+            m = win.misfit(design, orientation, bx, by, bb + db * step_b, scale, tall)
+            best = min(best, (m, bx, by, bb + db * step_b))
+        _, bx, by, bb = best
+        for dx in (-step_xy, 0.0, step_xy):
+            for dy in (-step_xy, 0.0, step_xy):
+                if dx or dy:
+                    m = win.misfit(design, orientation, bx + dx, by + dy, bb, scale, tall)
+                    best = min(best, (m, bx + dx, by + dy, bb))
+    return best
+
+
+def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[ReefDesign], *,
+            noise: float, ping: np.ndarray | None = None, design: str = "",
+            pose: tuple[float, float, float, float] | None = None) -> Rest:
+    """How one unit rests: its top's tilt and its best orientation.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (N, 3)
+        The soundings around the unit (its own and the seabed about it), m.
+    h : ndarray, shape (N,)
+        Their heights above the seabed (m).
+    own : ndarray of bool, shape (N,)
+        The unit's own soundings.
+    designs : sequence of ReefDesign
+        The designs it may be; ``design`` names the one an upright fit chose (only that
+        one is then compared).
+    noise : float
+        The soundings' vertical 1-sigma (m).
+    ping : ndarray of int, shape (N,), optional
+    pose : (x, y, bearing_deg, scale), optional
+        The upright fit's pose: the upright comparison starts there.
+
+    Returns
+    -------
+    Rest
+    """
+    xy = xyz[:, :2]
+    pts = xyz[own]  # the top's tilt from level, whatever the seabed does
+    coef, cov, note = top_plane(pts, noise, None if ping is None else ping[own])
+    tilt, tilt_sigma, _ = top_tilt(pts, noise, None if ping is None else ping[own])
+    level = h.copy()
+    if not note and tilt <= _LEVEL_MAX:  # a lean taken out of the unit's own heights
+        mx, my = pts[:, :2].mean(axis=0)
+        level[own] -= coef[1] * (xy[own, 0] - mx) + coef[2] * (xy[own, 1] - my)
+    base = Rest(top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note)
+    chosen = [d for d in designs if d.name == design] if design else list(designs)
+    if not chosen:
+        return base
+    win = _Window(xy, level)
+    weight = np.maximum(h[own], 0.0)
+    centre = ((xy[own] * weight[:, None]).sum(axis=0) / max(weight.sum(), 1e-12) if own.any()
+              else xy.mean(axis=0))
+    cx, cy = float(centre[0]), float(centre[1])
+    results = []
+    for d in chosen:
+        scale = pose[3] if pose is not None and d.name == design else 1.0
+        for way in distinct_orientations(d):
+            if way == "upright" and pose is not None and d.name == design:
+                fit = _best_pose(win, d, way, pose[0], pose[1], scale,
+                                 np.array([pose[2] - 4.0, pose[2], pose[2] + 4.0]))
+            else:
+                sym = d.symmetry if way in ("upright", "upside down") else 2
+                fit = _best_pose(win, d, way, cx, cy, scale, np.arange(0.0, 360.0 / sym, 6.0))
+            results.append((fit, d, way))
+    (m, x, y, b), d, way = min(results, key=lambda r: r[0][0])
+    mine = [r for r in results if r[1] is d]
+    up = min((r for r in mine if r[2] == "upright"), key=lambda r: r[0][0], default=None)
+    down = min((r for r in mine if r[2] != "upright"), key=lambda r: r[0][0], default=None)
+    upright = math.inf if up is None else up[0][0]
+    turned = math.inf if down is None else down[0][0]
+    share, n_differ = math.nan, 0
+    if up is not None and down is not None:
+        scale = pose[3] if pose is not None and d.name == design else 1.0
+        tall = d.height * scale
+        share, n_differ = win.preference(win.surface(d, up[2], *up[0][1:], scale, tall),
+                                         win.surface(d, down[2], *down[0][1:], scale, tall), tall)
+    ways = distinct_orientations(d)
+    overturned: bool | None = None
+    if len(ways) == 1:
+        note = note or f"the {d.name} design looks alike every way up: its orientation cannot be told"
+    elif n_differ < _MIN_DIFFER:
+        note = note or (f"{n_differ} cells where upright and {down[2] if down else 'overturned'} differ "
+                        f"(fewer than {_MIN_DIFFER}): its orientation cannot be told")
+    else:
+        overturned = bool(upright - turned >= OVERTURNED_MARGIN * d.height and share >= OVERTURNED_SHARE)
+    if overturned is False:
+        resting = "upright"
+        (m, x, y, b) = up[0] if up is not None else (m, x, y, b)
+    elif overturned and down is not None:
+        resting, (m, x, y, b) = down[2], down[0]
+    else:
+        resting = ""
+    return Rest(d.name, resting, overturned, m, upright, turned, x, y, b % 360.0, tilt, tilt_sigma, note,
+                share, n_differ)
+
+
+#: Largest misfit (a share of the orientation's own height, mean absolute) at which a unit
+#: no upright design fits is still taken for an overturned one of its design.
+OVERTURNED_FIT = 0.25
+
+
+def with_rest(reef: Reef, rows: np.ndarray, own: np.ndarray, points: np.ndarray, height: np.ndarray,
+              designs: Sequence[ReefDesign], *, noise: float, ping: np.ndarray | None = None,
+              pose: tuple[float, float, float, float] | None = None) -> Reef:
+    """``reef`` with how it rests (:func:`rest_of`): its top's tilt, and with designs its
+    best orientation and whether it is overturned.
+
+    Parameters
+    ----------
+    reef : Reef
+        Its ``design`` (when an upright fit chose one) limits the comparison to that design.
+    rows : ndarray of int
+        The soundings around it (rows of ``points``), its own among them.
+    own : ndarray of int
+        Its own soundings.
+    points, height : ndarray
+        All soundings (N, 3) and their heights above the seabed (N,).
+    designs : sequence of ReefDesign
+    noise : float
+        The soundings' vertical 1-sigma (m).
+    ping : ndarray of int, shape (N,), optional
+    pose : (x, y, bearing_deg, scale), optional
+        The upright fit's design origin, bearing and scale.
+    """
+    rows = np.union1d(rows, own)
+    mine = np.isin(rows, own)
+    rest = rest_of(points[rows], height[rows], mine, designs, noise=noise,
+                   ping=None if ping is None else ping[rows], design=reef.design, pose=pose)
+    return replace(reef, top_tilt_deg=rest.top_tilt_deg, top_tilt_sigma_deg=rest.top_tilt_sigma_deg,
+                   resting=rest.resting, overturned=rest.overturned, resting_misfit=rest.misfit,
+                   resting_note=rest.note,
+                   design=reef.design or (rest.design if rest.overturned else ""))
+
+
+def overturned_unit(reef: Reef, designs: Sequence[ReefDesign]) -> bool:
+    """Whether a unit that no upright design fits is one of them overturned
+    (:data:`OVERTURNED_FIT`)."""
+    d = next((d for d in designs if d.name == reef.design), None)
+    if d is None or not reef.overturned:
+        return False
+    tall = max(float(surface_map(d, reef.resting)[0].max()), d.height)
+    return bool(reef.resting_misfit <= OVERTURNED_FIT * tall)
