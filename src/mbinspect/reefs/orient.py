@@ -26,7 +26,7 @@ import numpy as np
 from ..design_solids import distinct_orientations, sample, surface_map
 from ..reef_designs import ReefDesign
 from .results import Reef
-from .tilt import CELL, cells_of, top_plane, top_tilt
+from .tilt import CELL, cells_of, tilt_of, top_plane
 
 __all__ = ["Rest", "rest_of", "with_rest", "overturned_unit",
            "OVERTURNED_MARGIN", "OVERTURNED_FIT"]
@@ -180,20 +180,18 @@ def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[R
     xy = xyz[:, :2]
     pts = xyz[own]  # the top's tilt from level, whatever the seabed does
     coef, cov, note = top_plane(pts, noise, None if ping is None else ping[own])
-    tilt, tilt_sigma, _ = top_tilt(pts, noise, None if ping is None else ping[own])
+    tilt, tilt_sigma = tilt_of(coef, cov) if not note else (math.nan, math.nan)
     level = h.copy()
     if not note and tilt <= _LEVEL_MAX:  # a lean taken out of the unit's own heights
         mx, my = pts[:, :2].mean(axis=0)
         level[own] -= coef[1] * (xy[own, 0] - mx) + coef[2] * (xy[own, 1] - my)
-    base = Rest(top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note)
     chosen = [d for d in designs if d.name == design] if design else list(designs)
     if not chosen:
-        return base
+        return Rest(top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note)
     win = _Window(xy, level)
     weight = np.maximum(h[own], 0.0)
     centre = ((xy[own] * weight[:, None]).sum(axis=0) / max(weight.sum(), 1e-12) if own.any()
               else xy.mean(axis=0))
-    cx, cy = float(centre[0]), float(centre[1])
     results = []
     for d in chosen:
         scale = pose[3] if pose is not None and d.name == design else 1.0
@@ -203,38 +201,45 @@ def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[R
                                  np.array([pose[2] - 4.0, pose[2], pose[2] + 4.0]))
             else:
                 sym = d.symmetry if way in ("upright", "upside down") else 2
-                fit = _best_pose(win, d, way, cx, cy, scale, np.arange(0.0, 360.0 / sym, 6.0))
-            results.append((fit, d, way))
-    (m, x, y, b), d, way = min(results, key=lambda r: r[0][0])
+                fit = _best_pose(win, d, way, float(centre[0]), float(centre[1]), scale,
+                                 np.arange(0.0, 360.0 / sym, 6.0))
+            results.append((fit, d, way, scale))
+    rest = _decide(win, results)
+    return replace(rest, top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note or rest.note)
+
+
+_Fit = tuple[tuple[float, float, float, float], ReefDesign, str, float]
+
+
+def _decide(win: _Window, results: list[_Fit]) -> Rest:
+    """Upright or overturned, from each design's and orientation's best fit (misfit, x, y,
+    bearing), design, orientation and scale: the best design's best upright and best other
+    orientations compared (:data:`OVERTURNED_MARGIN`, :data:`OVERTURNED_SHARE`)."""
+    best = min(results, key=lambda r: r[0][0])
+    d, scale = best[1], best[3]
     mine = [r for r in results if r[1] is d]
     up = min((r for r in mine if r[2] == "upright"), key=lambda r: r[0][0], default=None)
     down = min((r for r in mine if r[2] != "upright"), key=lambda r: r[0][0], default=None)
     upright = math.inf if up is None else up[0][0]
     turned = math.inf if down is None else down[0][0]
-    share, n_differ = math.nan, 0
+    share, n_differ, note = math.nan, 0, ""
     if up is not None and down is not None:
-        scale = pose[3] if pose is not None and d.name == design else 1.0
         tall = d.height * scale
         share, n_differ = win.preference(win.surface(d, up[2], *up[0][1:], scale, tall),
                                          win.surface(d, down[2], *down[0][1:], scale, tall), tall)
-    ways = distinct_orientations(d)
     overturned: bool | None = None
-    if len(ways) == 1:
-        note = note or f"the {d.name} design looks alike every way up: its orientation cannot be told"
+    if down is None:
+        note = f"the {d.name} design looks alike every way up: its orientation cannot be told"
     elif n_differ < _MIN_DIFFER:
-        note = note or (f"{n_differ} cells where upright and {down[2] if down else 'overturned'} differ "
-                        f"(fewer than {_MIN_DIFFER}): its orientation cannot be told")
+        note = (f"{n_differ} cells where upright and {down[2]} differ (fewer than {_MIN_DIFFER}): "
+                "its orientation cannot be told")
     else:
         overturned = bool(upright - turned >= OVERTURNED_MARGIN * d.height and share >= OVERTURNED_SHARE)
-    if overturned is False:
-        resting = "upright"
-        (m, x, y, b) = up[0] if up is not None else (m, x, y, b)
-    elif overturned and down is not None:
-        resting, (m, x, y, b) = down[2], down[0]
-    else:
-        resting = ""
-    return Rest(d.name, resting, overturned, m, upright, turned, x, y, b % 360.0, tilt, tilt_sigma, note,
-                share, n_differ)
+    chosen = up if overturned is False else down if overturned else best
+    assert chosen is not None
+    (m, x, y, b), resting = chosen[0], chosen[2] if overturned is not None else ""
+    return Rest(d.name, resting, overturned, m, upright, turned, x, y, b % 360.0, note=note,
+                turned_share=share, n_differ=n_differ)
 
 
 #: Largest misfit (a share of the orientation's own height, mean absolute) at which a unit

@@ -19,7 +19,7 @@ from scipy.stats import t as student_t
 from ..fit.robust import clustered_cov
 from ..noise import robust_sigma
 
-__all__ = ["top_plane", "top_tilt", "cells_of"]
+__all__ = ["top_plane", "top_tilt", "tilt_of", "cells_of"]
 
 #: Patches of a top (m) whose soundings' errors are taken as one cluster in its tilt's 1-sigma.
 _PATCH = 0.5
@@ -127,12 +127,16 @@ def top_tilt(pts: np.ndarray, noise: float, ping: np.ndarray | None = None
     (5.7, True)
     """
     coef, cov, note = top_plane(pts, noise, ping)
-    if note:
-        return math.nan, math.nan, note
+    return (math.nan, math.nan, note) if note else (*tilt_of(coef, cov), "")
+
+
+def tilt_of(coef: np.ndarray, cov: np.ndarray) -> tuple[float, float]:
+    """A plane's tilt from level and its 1-sigma (degrees), from :func:`top_plane`'s
+    coefficients and covariance."""
     g = float(np.hypot(coef[1], coef[2]))
     if g < 1e-9:
         gs = float(np.sqrt(max(cov[1, 1] + cov[2, 2], 0.0) / 2))
     else:
         gs = float(np.sqrt(max((coef[1] ** 2 * cov[1, 1] + 2 * coef[1] * coef[2] * cov[1, 2]
                                 + coef[2] ** 2 * cov[2, 2]) / g**2, 0.0)))
-    return math.degrees(math.atan(g)), math.degrees(gs / (1.0 + g * g)), ""
+    return math.degrees(math.atan(g)), math.degrees(gs / (1.0 + g * g))
