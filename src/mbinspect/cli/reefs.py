@@ -90,6 +90,9 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
                   "reefs not in the plan"
                   + (f"; {sum(r.get('in_permit') is False for r in d['reefs'])} outside the permit area"
                      if args.permit_area else ""))
+        turned = [r for r in d["reefs"] if r.get("overturned")]
+        if turned:
+            print(f"{len(turned)} overturned: " + ", ".join(f"reef {r['id']} {r['resting']}" for r in turned))
     for w in result.warnings:
         print(f"mbinspect: warning: {w}", file=sys.stderr)
     rep.info(f"results in {out}/ (report.html, reefs.json, reefs.csv, reefs.geojson"

@@ -75,7 +75,9 @@ def _scene_reefs(pts: np.ndarray, origin: np.ndarray, reefs: Sequence[InjectedRe
         level = _seabed_at(pts, r.x, r.y, size, what="reef")
         x, y = r.x - origin[0], r.y - origin[1]
         reef = Reef(r.id, r.kind, x, y, r.bearing_deg,
-                    reef_boxes(r.kind, x, y, r.bearing_deg, level - r.burial, r.scale), group=r.group)
+                    reef_boxes(r.kind, x, y, r.bearing_deg, level - r.burial, r.scale, r.orientation,
+                               r.tilt_deg, r.tilt_bearing_deg), group=r.group,
+                    orientation=r.orientation, tilt_deg=r.tilt_deg, tilt_bearing_deg=r.tilt_bearing_deg)
         record = reef_truth(reef, Seabed(z0=level, roughness=0.0), (float(origin[0]), float(origin[1])))
         if not record["height"] > 0:
             raise InputError(f"reef {r.id}: buried {r.burial} m, deeper than its own height; "

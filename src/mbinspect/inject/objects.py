@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..design_solids import ORIENTATIONS
 from ..errors import InputError
 from ..reef_designs import BUILTIN_DESIGNS
 
@@ -40,7 +41,9 @@ class InjectedPile:
 class InjectedReef:
     """A reef to inject: a built-in design (``cross2``, ``cross1``, ``hollow``, ``triangle``, ``cube``)
     at (x, y) in the survey's coordinates, turned by ``bearing_deg``, built ``scale`` times
-    the design's size, its base ``burial`` m below the survey's seabed there (sunk)."""
+    the design's size, its base ``burial`` m below the survey's seabed there (sunk); at rest
+    ``orientation`` (upright, upside down, on its side, on its other side) and leaning
+    ``tilt_deg`` toward ``tilt_bearing_deg`` (its lowest corner then sunk ``burial``)."""
 
     id: int
     x: float
@@ -50,6 +53,9 @@ class InjectedReef:
     scale: float = 1.0
     burial: float = 0.1
     group: int = 1
+    orientation: str = "upright"
+    tilt_deg: float = 0.0
+    tilt_bearing_deg: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +85,9 @@ class Injection:
 
 
 _PILE_COLUMNS = ("id", "x", "y", "radius", "top", "height", "tilt_deg", "tilt_azimuth_deg", "group")
-_REEF_COLUMNS = ("id", "x", "y", "kind", "bearing_deg", "scale", "burial", "group")
+_REEF_COLUMNS = ("id", "x", "y", "kind", "bearing_deg", "scale", "burial", "group", "orientation",
+                 "tilt_deg", "tilt_bearing_deg")
+_TEXT = ("kind", "orientation")
 _POSITIVE = ("radius", "scale")
 
 
@@ -111,7 +119,7 @@ def _read_rows(path: str | Path, columns: Sequence[str], required: Sequence[str]
                     raise InputError(f"{p}: line {line}, column {key}: empty; expected a value")
                 continue
             try:
-                parsed[key] = raw if key == "kind" else int(raw) if key in ("id", "group") else float(raw)
+                parsed[key] = raw if key in _TEXT else int(raw) if key in ("id", "group") else float(raw)
             except ValueError:
                 raise InputError(f"{p}: line {line}, column {key}: {raw!r}; expected "
                                  f"{'an integer' if key in ('id', 'group') else 'a number'}") from None
@@ -136,6 +144,8 @@ def _value_problem(key: str, value: Any) -> str | None:
         return "a positive number"
     if key == "burial" and not value >= 0:
         return "a number >= 0 (m sunk)"
+    if key == "tilt_deg" and not 0 <= value <= 60:
+        return "a lean from 0 to 60 degrees"
     return None
 
 
@@ -159,7 +169,8 @@ def read_pile_file(path: str | Path) -> list[InjectedPile]:
 def read_reef_file(path: str | Path) -> list[InjectedReef]:
     """Reefs to inject from a CSV: ``id,x,y,kind`` (a built-in design: cross2, cross1,
     hollow, triangle); optional ``bearing_deg``, ``scale`` (as built / design), ``burial``
-    (m sunk below the seabed, default 0.1) and ``group``.
+    (m sunk below the seabed, default 0.1), ``group``, ``orientation`` (upright, upside down,
+    on its side, on its other side), ``tilt_deg`` and ``tilt_bearing_deg``.
 
     Raises
     ------
@@ -171,5 +182,8 @@ def read_reef_file(path: str | Path) -> list[InjectedReef]:
         if parsed["kind"] not in BUILTIN_DESIGNS:
             raise InputError(f"{path}: line {line}, column kind: {parsed['kind']!r}; expected one of "
                              f"{', '.join(BUILTIN_DESIGNS)}")
+        if parsed.get("orientation", "upright") not in ORIENTATIONS:
+            raise InputError(f"{path}: line {line}, column orientation: {parsed['orientation']!r}; expected "
+                             f"one of {', '.join(ORIENTATIONS)}")
         reefs.append(InjectedReef(**parsed))
     return reefs

@@ -72,3 +72,21 @@ def placement_lines(d: Mapping[str, Any]) -> list[dict[str, Any]]:
                     "geometry": {"type": "LineString", "coordinates": [start, [r["x"], r["y"]]]},
                     "properties": {"reef": r["id"], **props}})
     return out
+
+
+_REST_HEAD = {"reef": "reef", "design": "design", "resting": "resting", "overturned": "overturned",
+              "tilt": "top tilt (°)", "sigma": "1σ (°)", "misfit": "misfit (m)", "note": "note"}
+
+
+def rest_section(d: Mapping[str, Any]) -> tuple[str, str]:
+    """How each reef unit rests: its top's tilt with its 1-sigma, and upright or overturned
+    (the overturned first)."""
+    reefs = sorted(d["reefs"], key=lambda r: (r.get("overturned") is not True, r["id"]))
+    rows = [{"reef": r["id"], "design": r.get("design") or "", "resting": r.get("resting") or "",
+             "overturned": {True: "YES", False: "no", None: ""}[r.get("overturned")],
+             "tilt": _m(r.get("top_tilt_deg"), ".1f"), "sigma": _m(r.get("top_tilt_sigma_deg"), ".1f"),
+             "misfit": _m(r.get("resting_misfit"), ".2f"), "note": r.get("resting_note") or ""}
+            for r in reefs]
+    n = sum(r.get("overturned") is True for r in reefs)
+    head = f"How the units rest ({n} overturned)" if n else "How the units rest"
+    return head, html_table(rows, list(_REST_HEAD), list(_REST_HEAD.values()))

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..grid import bounds as plan_bounds
-from .clearance import LEAST_COLS, clearance_section, placement_lines, placement_section
+from .clearance import LEAST_COLS, clearance_section, placement_lines, placement_section, rest_section
 from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_furniture, mpl, plan_image, save_figure
@@ -206,9 +206,12 @@ def reef_verdicts(result: Any) -> list[tuple[str, str]]:
     """
     n = len(result.reefs)
     ev = result.evaluation
+    turned = [r.id for r in result.reefs if r.overturned]
+    rest = [(f"Overturned (on a side or upside down): {len(turned)} unit{'s' * (len(turned) != 1)} "
+             f"(reef {', '.join(map(str, turned))})", "fail")] if turned else []
     if ev is None:
         return [(f"Reefs: {n} found in {len(result.groups)} groups, {len(result.others)} other objects; no "
-                 "reference to score against", "info")]
+                 "reference to score against", "info")] + rest
     text = (f"Reefs: {n} found; against {ev.tp + ev.fn} reference reefs: TP {ev.tp}, FP {ev.fp}, FN {ev.fn}, "
             f"correctness {100 * ev.correctness:.1f} %, completeness {100 * ev.completeness:.1f} %"
             if n and ev.tp + ev.fn else f"Reefs: {n} found; TP {ev.tp}, FP {ev.fp}, FN {ev.fn}")
@@ -310,6 +313,8 @@ def _page(result: Any, d: Mapping[str, Any], images: dict[str, bytes]) -> list[t
         sections.append(("Other objects", _others_table(d["others"])))
     if "plan_missing" in d:
         sections.append(placement_section(d))
+    if d["reefs"]:
+        sections.append(rest_section(d))
     sections.append(clearance_section([(f"reef {r['id']}", r) for r in d["reefs"]]
                                       + [(f"other at ({o['x']:.1f}, {o['y']:.1f})", o) for o in d["others"]
                                          if o["n_points"] > SPECK_SOUNDINGS], d["parameters"]))

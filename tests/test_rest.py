@@ -1,0 +1,163 @@
+"""How reef units rest: boxes turned in space, designs in every orientation, the simulator's
+overturned and leaning units, and the reef chain telling them apart with the top's tilt."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mbinspect.cli import main
+from mbinspect.cloud import PointCloud
+from mbinspect.design_solids import ORIENTATIONS, corners, design_solids, distinct_orientations
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.inject import InjectedReef, inject, read_reef_file
+from mbinspect.io import read, write
+from mbinspect.reef_designs import BUILTIN_DESIGNS
+from mbinspect.reefs import extract_reefs
+from mbinspect.reefs.orient import rest_of
+from mbinspect.reefs.tilt import top_tilt
+from mbinspect.simulate import simulate
+from mbinspect.solids import ray_box, turn, upper_surface
+
+
+def test_a_box_turned_on_its_side_stands_as_tall_as_it_was_wide():
+    axes = turn((1.0, 0.0, 0.0), 90.0)  # rows: length, width, height directions
+    base = np.zeros(3)
+    size = (3.0, 0.8, 1.2)
+    top = upper_surface([(base, axes, size)], np.array([[0.0, 0.0], [1.4, 0.0], [2.0, 0.0]]))
+    # the width now points up: the top is 0.8 m above the base, the box 1.2 m across in y
+    assert top[0] == pytest.approx(0.4) and top[1] == pytest.approx(0.4) and top[2] == -np.inf
+    t, n = ray_box(base, axes, size, np.array([[0.0, -5.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    assert t[0] == pytest.approx(5.0) and n[0] == pytest.approx([0.0, -1.0, 0.0])
+
+
+def test_each_design_has_the_orientations_that_look_different():
+    assert distinct_orientations(BUILTIN_DESIGNS["cube"]) == ("upright",)
+    assert distinct_orientations(BUILTIN_DESIGNS["cross2"]) == ("upright", "upside down", "on its side")
+    assert "upside down" not in distinct_orientations(BUILTIN_DESIGNS["cross1"])  # alike both ways up
+    for name, d in BUILTIN_DESIGNS.items():
+        for way in ORIENTATIONS:
+            low = min(float(c[:, 2].min()) for c in corners(design_solids(d, way, z_base=-5.0)))
+            assert low == pytest.approx(-5.0), (name, way)  # it rests on its lowest corner
+    with pytest.raises(ParameterError, match="orientation 'sideways'"):
+        design_solids(BUILTIN_DESIGNS["cube"], "sideways")
+
+
+def test_a_leaning_unit_leans_by_its_tilt():
+    d = BUILTIN_DESIGNS["cube"]
+    c = np.concatenate(corners(design_solids(d, tilt_deg=10.0, tilt_bearing_deg=90.0)))
+    top = c[np.argsort(c[:, 2])[-4:]]  # the top face's corners
+    normal = np.cross(top[1] - top[0], top[2] - top[0])
+    tilt = math.degrees(math.acos(abs(normal[2]) / np.linalg.norm(normal)))
+    assert tilt == pytest.approx(10.0, abs=1e-6)
+    assert c[:, 2].min() == pytest.approx(0.0)
+
+
+def test_the_top_tilt_of_a_plane_within_its_two_sigma():
+    errs = []
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        xy = rng.uniform(-1.0, 1.0, (300, 2))
+        z = -15.0 + math.tan(math.radians(6.0)) * xy[:, 1] + rng.normal(0, 0.03, 300)
+        tilt, sigma, note = top_tilt(np.column_stack([xy, z]), 0.03)
+        assert note == ""
+        errs.append(abs(tilt - 6.0) <= 2 * sigma)
+    assert np.mean(errs) >= 0.85
+    tilt, sigma, note = top_tilt(np.array([[0.0, 0.0, 1.0]] * 5), 0.03)
+    assert math.isnan(tilt) and "too few" in note
+
+
+@pytest.fixture(scope="module")
+def turned_field():
+    return simulate("reef-field", seed=2, groups="mixed", per_group=8, overturned=3, tilt_max_deg=10.0,
+                    close_pairs=0, boulders=0, debris=0)
+
+
+def test_the_simulator_says_how_each_unit_rests(turned_field):
+    reefs = turned_field.truth["reefs"]
+    turned = [r for r in reefs if r["overturned"]]
+    assert len(turned) == 3 and all(r["orientation"] != "upright" for r in turned)
+    assert all(0.0 <= r["top_tilt_deg"] <= 10.0 for r in reefs)
+    # a cross1 on its side stands on a bar's end: 3 m, not 1.2 m
+    side = [r for r in turned if r["kind"] == "cross1"]
+    assert all(r["height"] > 2.5 for r in side)
+
+
+def test_overturned_units_are_found_and_flagged_and_upright_ones_are_not(turned_field):
+    res = extract_reefs(turned_field.cloud, design="cross2,cross1,hollow,triangle")
+    for t in turned_field.truth["reefs"]:
+        f = min(res.reefs, key=lambda r: math.hypot(r.x - t["x"], r.y - t["y"]))
+        assert math.hypot(f.x - t["x"], f.y - t["y"]) < 1.5, t["id"]
+        assert f.overturned is t["overturned"], (t["id"], t["kind"], t["orientation"], f.resting)
+        if t["overturned"]:
+            assert f.resting != "upright" and f.design
+        else:
+            assert abs(f.top_tilt_deg - t["top_tilt_deg"]) <= 3 * f.top_tilt_sigma_deg + 0.2, t["id"]
+    row = res.reefs[0].to_dict()
+    assert {"top_tilt_deg", "top_tilt_sigma_deg", "resting", "overturned", "resting_note"} <= set(row)
+
+
+def test_a_cube_cannot_tell_its_orientation():
+    sim = simulate("reef-field", seed=1, groups="cube", per_group=2, tilt_max_deg=5.0, close_pairs=0,
+                   boulders=0, debris=0)
+    res = extract_reefs(sim.cloud, design="cube")
+    assert len(res.reefs) == 2
+    for r in res.reefs:
+        assert r.overturned is None and "cannot be told" in r.resting_note
+
+
+def test_units_injected_on_their_side_into_a_real_file_are_flagged():
+    """The EM3000 line (.mb56, 4.5 m of water): a cross on its side and one upright, both leaning."""
+    cloud = read(Path(__file__).parent / "data" / "pdal_mbf_em300raw.mb56")
+    cx, cy = np.median(cloud.xyz[:, :2], axis=0)
+    units = [InjectedReef(1, cx - 3.0, cy, "cross1", 20.0, orientation="on its side", tilt_deg=4.0),
+             InjectedReef(2, cx + 3.0, cy, "cross1", 60.0, tilt_deg=5.0, tilt_bearing_deg=200.0)]
+    inj = inject(cloud.xyz, cloud.fields, reefs=units)
+    res = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields)), design="cross1,cross2,hollow,triangle")
+    got = {}
+    for t in inj.truth["reefs"]:
+        f = min(res.reefs, key=lambda r: math.hypot(r.x - t["x"], r.y - t["y"]))
+        assert math.hypot(f.x - t["x"], f.y - t["y"]) < 1.5
+        got[t["id"]] = f.overturned
+    assert got == {1: True, 2: False}
+
+
+def test_an_injection_file_names_a_bad_orientation(tmp_path):
+    p = tmp_path / "reefs.csv"
+    p.write_text("id,x,y,kind,orientation,tilt_deg\n1,0,0,cross1,on its side,5\n2,9,0,cross1,sideways,0\n")
+    with pytest.raises(InputError, match=r"line 3, column orientation: 'sideways'; expected one of upright"):
+        read_reef_file(p)
+    p.write_text("id,x,y,kind,tilt_deg\n1,0,0,cross1,75\n")
+    with pytest.raises(InputError, match=r"line 2, column tilt_deg: '75'; expected a lean from 0 to 60"):
+        read_reef_file(p)
+
+
+def test_the_cli_reports_overturned_units_in_tiles_as_in_memory(turned_field, tmp_path, capsys):
+    field = tmp_path / "field.laz"
+    write(PointCloud(turned_field.cloud.xyz, turned_field.cloud.fields, crs="EPSG:32650"), field)
+    outs = {}
+    for tiled in (False, True):
+        out = tmp_path / f"out{tiled}"
+        argv = ["reefs", str(field), "--design", "cross2,cross1,hollow,triangle", "--out", str(out)]
+        assert main(argv + (["--tiled", "--tile-size", "110", "--workers", "1"] if tiled else [])) == 0
+        printed = capsys.readouterr().out
+        assert "3 overturned:" in printed
+        d = json.loads((out / "reefs.json").read_text())
+        outs[tiled] = sorted((round(r["x"], 1), r["overturned"]) for r in d["reefs"])
+        assert "How the units rest (3 overturned)" in (out / "report.html").read_text()
+        assert "resting" in (out / "reefs.csv").read_text().splitlines()[0]
+    assert outs[True] == outs[False]
+
+
+def test_rest_of_without_designs_gives_the_tilt_alone():
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-1.0, 1.0, (400, 2))
+    h = np.where(np.abs(xy).max(axis=1) < 0.8, 1.0 + 0.05 * xy[:, 0], 0.0) + rng.normal(0, 0.01, 400)
+    own = h > 0.5
+    rest = rest_of(np.column_stack([xy, h - 10.0]), h, own, (), noise=0.01)
+    assert rest.design == "" and rest.overturned is None
+    assert rest.top_tilt_deg == pytest.approx(math.degrees(math.atan(0.05)), abs=0.5)
