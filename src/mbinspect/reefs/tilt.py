@@ -6,7 +6,9 @@ A unit that landed on a rock or on the edge of a scour hole leans. The top's cel
 it. Its 1-sigma is the largest of three readings of the soundings' spread about it: as
 independent, pings as clusters (a ping's roll or heave moves all its soundings) and
 patches of the top as clusters, with few clusters corrected and widened by Student's
-quantile so that 2 sigma still holds 95 %.
+quantile so that 2 sigma still holds 95 %; and, since a tilt is the length of
+a slope vector, its 1-sigma is set so that 2 sigma holds 95 % of that vector's error
+(:func:`tilt_of`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ __all__ = ["top_plane", "top_tilt", "tilt_of", "cells_of"]
 
 #: Patches of a top (m) whose soundings' errors are taken as one cluster in its tilt's 1-sigma.
 _PATCH = 0.5
+
+#: The radius (in standard deviations) holding 95 % of a 2-D normal error: sqrt(chi2(2)_95).
+VECTOR_95 = 2.447746830680816
 
 #: Upper-surface cell (m): a sounding's neighbourhood on the top.
 CELL = 0.25
@@ -132,11 +137,13 @@ def top_tilt(pts: np.ndarray, noise: float, ping: np.ndarray | None = None
 
 def tilt_of(coef: np.ndarray, cov: np.ndarray) -> tuple[float, float]:
     """A plane's tilt from level and its 1-sigma (degrees), from :func:`top_plane`'s
-    coefficients and covariance."""
+    coefficients and covariance.
+
+    The tilt is the length of the slope vector, and near level that length is biased up
+    (noise only lengthens it): the 1-sigma is :data:`VECTOR_95` / 2 times the slope
+    vector's larger standard deviation, so that 2 sigma holds 95 % of the vector's own
+    error, which bounds the length's error at any tilt.
+    """
     g = float(np.hypot(coef[1], coef[2]))
-    if g < 1e-9:
-        gs = float(np.sqrt(max(cov[1, 1] + cov[2, 2], 0.0) / 2))
-    else:
-        gs = float(np.sqrt(max((coef[1] ** 2 * cov[1, 1] + 2 * coef[1] * coef[2] * cov[1, 2]
-                                + coef[2] ** 2 * cov[2, 2]) / g**2, 0.0)))
-    return math.degrees(math.atan(g)), math.degrees(gs / (1.0 + g * g))
+    largest = float(np.sqrt(max(np.linalg.eigvalsh(cov[1:, 1:]).max(), 0.0)))
+    return math.degrees(math.atan(g)), math.degrees(largest * VECTOR_95 / 2 / (1.0 + g * g))
