@@ -121,23 +121,24 @@ def surface_map(design: ReefDesign, orientation: str, cell: float = 0.02
     return np.where(np.isfinite(h), h, 0.0), float(g[0]), cell
 
 
-def sample(design: ReefDesign, orientation: str, xy: np.ndarray, x: float, y: float,
-           bearing_deg: float, scale: float = 1.0) -> np.ndarray:
+def sample(design: ReefDesign, orientation: str, xy: np.ndarray, x: float | np.ndarray,
+           y: float | np.ndarray, bearing_deg: float | np.ndarray, scale: float = 1.0) -> np.ndarray:
     """The upper surface of the design in ``orientation`` placed at (x, y, bearing, scale),
-    at plan points (N, 2) (nearest node of :func:`surface_map`): heights above its base."""
+    at plan points (N, 2) (nearest node of :func:`surface_map`): heights above its base,
+    (N,); or, given K poses (``x``, ``y``, ``bearing_deg`` arrays of K), (K, N)."""
     h, g0, cell = surface_map(design, orientation)
-    b = math.radians(bearing_deg)
-    c, s = math.cos(b), math.sin(b)
-    rx, ry = (xy[:, 0] - x) / scale, (xy[:, 1] - y) / scale
+    many = np.ndim(bearing_deg) > 0
+    b = np.radians(np.atleast_1d(np.asarray(bearing_deg, np.float64)))[:, None]
+    c, s = np.cos(b), np.sin(b)
+    rx = (xy[None, :, 0] - np.atleast_1d(np.asarray(x, np.float64))[:, None]) / scale
+    ry = (xy[None, :, 1] - np.atleast_1d(np.asarray(y, np.float64))[:, None]) / scale
     # into the design frame: turn counter-clockwise by the bearing
-    u, v = rx * c - ry * s, rx * s + ry * c
     n = h.shape[0]
-    i = np.rint((u - g0) / cell).astype(np.intp)
-    j = np.rint((v - g0) / cell).astype(np.intp)
+    i = np.rint(((rx * c - ry * s) - g0) / cell).astype(np.intp)
+    j = np.rint(((rx * s + ry * c) - g0) / cell).astype(np.intp)
     ok = (i >= 0) & (i < n) & (j >= 0) & (j < n)
-    out = np.zeros(len(xy))
-    out[ok] = h[j[ok], i[ok]] * scale
-    return out
+    out = np.where(ok, h[np.clip(j, 0, n - 1), np.clip(i, 0, n - 1)] * scale, 0.0)
+    return out if many else out[0]
 
 
 @lru_cache(maxsize=64)

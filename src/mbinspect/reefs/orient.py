@@ -96,29 +96,38 @@ class _Window:
         self.order, self.starts = cells_of(xy, CELL)
         self.measured = np.maximum.reduceat(h[self.order], self.starts)
 
-    def surface(self, design: ReefDesign, orientation: str, x: float, y: float, bearing: float,
-                scale: float, tall: float) -> np.ndarray:
+    def surface(self, design: ReefDesign, orientation: str, x: float | np.ndarray, y: float | np.ndarray,
+                bearing: float | np.ndarray, scale: float, tall: float) -> np.ndarray:
         """The design's surface over each cell (its highest at the cell's soundings), sunk or
         lifted (a unit on a rock or its own edge) as far as fits the soundings (up to 30 %
-        of its height); NaN off the design."""
+        of its height); NaN off the design. Given K poses (arrays), (K, cells)."""
         d = np.maximum.reduceat(sample(design, orientation, self.xy[self.order], x, y, bearing, scale),
-                                self.starts)
+                                self.starts, axis=-1)
         m = self.measured
         on = d > 0
         both = on & (m > 0.1 * tall)
-        sink = float(np.clip(np.median(d[both] - m[both]), -0.3 * tall, 0.3 * tall)) if both.any() else 0.0
+        if d.ndim > 1:  # each pose's median over its cells in common (none: no sink)
+            v = np.sort(np.where(both, d - m, np.inf), axis=-1)
+            k = both.sum(axis=-1)
+            rows = np.arange(len(v))
+            lo, hi = v[rows, np.maximum(k - 1, 0) // 2], v[rows, np.maximum(k, 1) // 2 - (k == 0)]
+            gap = np.where(k > 0, (lo + hi) / 2, 0.0)[:, None]
+        else:
+            gap = np.median(d[both] - m[both]) if both.any() else 0.0
+        sink = np.clip(np.nan_to_num(gap), -0.3 * tall, 0.3 * tall)
         return np.where(on, np.maximum(d - sink, 0.0), np.nan)
 
-    def misfit(self, design: ReefDesign, orientation: str, x: float, y: float, bearing: float,
-               scale: float, tall: float) -> float:
+    def misfit(self, design: ReefDesign, orientation: str, x: float | np.ndarray, y: float | np.ndarray,
+               bearing: float | np.ndarray, scale: float, tall: float) -> np.ndarray:
         """Mean absolute difference (m) of the cells' highest soundings from the design's
-        surface (:meth:`surface`), over the cells either stands in."""
-        d = self.surface(design, orientation, x, y, bearing, scale, tall)
+        surface (:meth:`surface`), over the cells either stands in; one per pose."""
+        d = np.atleast_2d(self.surface(design, orientation, np.atleast_1d(x), np.atleast_1d(y),
+                                       np.atleast_1d(bearing), scale, tall))
         m = self.measured
         used = np.isfinite(d) | (m > 0.2 * tall)
-        if not used.any():
-            return math.inf
-        return float(np.mean(np.abs(m[used] - np.nan_to_num(d[used]))))
+        e = np.where(used, np.abs(m - np.nan_to_num(d)), 0.0).sum(axis=1)
+        n = used.sum(axis=1)
+        return np.where(n > 0, e / np.maximum(n, 1), np.inf)
 
     def preference(self, a: np.ndarray, b: np.ndarray, tall: float) -> tuple[float, int]:
         """Of the cells where two surfaces (:meth:`surface`) differ by more than a quarter
@@ -136,18 +145,24 @@ def _best_pose(win: _Window, design: ReefDesign, orientation: str, x: float, y: 
     """The bearing and position of least misfit: a coarse sweep of ``bearings``, then finer
     turns and shifts about the best. Returns misfit, x, y, bearing."""
     tall = design.height * scale
-    best = min((win.misfit(design, orientation, x, y, b, scale, tall), x, y, float(b)) for b in bearings)
+    bearings = np.asarray(bearings, np.float64)
+    ones = np.ones(len(bearings))
+    m = win.misfit(design, orientation, x * ones, y * ones, bearings, scale, tall)
+    k = int(np.argmin(m))
+    best = (float(m[k]), x, y, float(bearings[k]))
     for step_b, step_xy in ((2.0, 0.15), (1.0, 0.05)):
         _, bx, by, bb = best
-        for db in (-2, -1, 1, 2):
-            m = win.misfit(design, orientation, bx, by, bb + db * step_b, scale, tall)
-            best = min(best, (m, bx, by, bb + db * step_b))
+        turns = bb + step_b * np.array([-2.0, -1.0, 1.0, 2.0])
+        m = win.misfit(design, orientation, bx + 0 * turns, by + 0 * turns, turns, scale, tall)
+        k = int(np.argmin(m))
+        best = min(best, (float(m[k]), bx, by, float(turns[k])))
         _, bx, by, bb = best
-        for dx in (-step_xy, 0.0, step_xy):
-            for dy in (-step_xy, 0.0, step_xy):
-                if dx or dy:
-                    m = win.misfit(design, orientation, bx + dx, by + dy, bb, scale, tall)
-                    best = min(best, (m, bx + dx, by + dy, bb))
+        dx, dy = (a.ravel() for a in np.meshgrid([-step_xy, 0.0, step_xy], [-step_xy, 0.0, step_xy]))
+        moved = (dx != 0) | (dy != 0)
+        xs, ys = bx + dx[moved], by + dy[moved]
+        m = win.misfit(design, orientation, xs, ys, bb + 0 * xs, scale, tall)
+        k = int(np.argmin(m))
+        best = min(best, (float(m[k]), float(xs[k]), float(ys[k]), bb))
     return best
 
 

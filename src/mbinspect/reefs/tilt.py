@@ -52,23 +52,27 @@ def top_plane(pts: np.ndarray, noise: float, ping: np.ndarray | None = None
         return nan, np.full((3, 3), math.nan), "too few soundings for a top plane"
     p = pts - np.array([*pts[:, :2].mean(axis=0), 0.0])
     order, starts = cells_of(p[:, :2], CELL)
-    ends = np.r_[starts[1:], len(order)]
-    top = order[starts + np.array([np.argmax(p[order[s:e], 2]) for s, e in zip(starts, ends, strict=True)])]
+    cell = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(order)]))
+    by_height = order[np.lexsort((p[order, 2], cell))]  # within each cell, lowest first
+    top = by_height[np.r_[starts[1:], len(order)] - 1]  # each cell's highest sounding
     u = p[top]
     tol = max(3.0 * noise, 0.04)
     best, best_n = None, 0
-    rng = np.random.default_rng(0)
     high = np.flatnonzero(u[:, 2] >= np.median(u[:, 2]))
-    for _ in range(150 if len(high) >= 3 else 0):
-        a = u[rng.choice(high, 3, replace=False)]
-        n = np.cross(a[1] - a[0], a[2] - a[0])
-        if abs(n[2]) < 1e-9 or abs(n[2]) / np.linalg.norm(n) < math.cos(math.radians(40)):
-            continue
-        n = n / n[2]  # the plane z = a0z - n0 (x - a0x) - n1 (y - a0y)
-        res = u[:, 2] - (a[0, 2] - n[0] * (u[:, 0] - a[0, 0]) - n[1] * (u[:, 1] - a[0, 1]))
-        inl = int(np.sum(np.abs(res) <= tol))
-        if inl > best_n:
-            best, best_n = (a[0], n), inl
+    if len(high) >= 3:  # 150 planes through three high cells, all at once
+        rng = np.random.default_rng(0)
+        tri = u[high[np.argpartition(rng.random((150, len(high))), 2, axis=1)[:, :3]]]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        steep = np.abs(n[:, 2]) < math.cos(math.radians(40)) * np.maximum(np.linalg.norm(n, axis=1), 1e-12)
+        ok = ~steep & (np.abs(n[:, 2]) > 1e-9)
+        if ok.any():
+            tri, n = tri[ok], n[ok] / n[ok, 2:3]  # each plane z = a0z - n0 (x - a0x) - n1 (y - a0y)
+            a0 = tri[:, 0]
+            res = u[None, :, 2] - (a0[:, 2:3] - n[:, 0:1] * (u[None, :, 0] - a0[:, 0:1])
+                                   - n[:, 1:2] * (u[None, :, 1] - a0[:, 1:2]))
+            inl = (np.abs(res) <= tol).sum(axis=1)
+            k = int(np.argmax(inl))
+            best, best_n = (a0[k], n[k]), int(inl[k])
     if best is None or best_n < 6:
         return nan, np.full((3, 3), math.nan), "the top holds no plane"
     a0, n = best
