@@ -8,8 +8,8 @@ Simulator rows: ``reef-field`` fields of 16 units a group (``mixed``: cross2, cr
 and triangle in turn; ``cross2``: double-layer crosses only, whose upside-down shows the
 same plan as upright), six units a field overturned (on a side or upside down: each design's
 distinct ways, :func:`mbinspect.design_solids.distinct_orientations`), every unit leaning
-0-12° (``-level``: none; ``-beam``: cast through 1° cones), four reef-sized rocks among them. Columns: overturned units found
-as reefs and flagged overturned; upright units found, flagged overturned in error, left
+0-12° (``-level``: none; ``-beam``: cast through 1° cones), four reef-sized rocks among
+them. Columns: overturned units found as reefs and flagged overturned; upright units found, flagged overturned in error, left
 undecided; the top tilt's error against the true lean for the units upright or upside down
 (RMS, max, within 2σ); reefs found where no unit is (extra); ``extract_reefs`` seconds.
 The ``default`` row is the preset as it was (no unit overturned or leaning): no unit may be
@@ -42,7 +42,8 @@ CONFIGS: dict[str, dict] = {
     "mixed": {"groups": "mixed", "overturned": 6, "tilt_max_deg": 12.0, **FIELD},
     "cross2": {"groups": "cross2", "overturned": 6, "tilt_max_deg": 12.0, **FIELD},
     "mixed-level": {"groups": "mixed", "overturned": 6, **FIELD},
-    "mixed-beam": {"groups": "mixed", "overturned": 6, "tilt_max_deg": 12.0, "sonar": "shallow-beam", **FIELD},
+    "mixed-beam": {"groups": "mixed", "overturned": 6, "tilt_max_deg": 12.0, "sonar": "shallow-beam",
+                   **FIELD},
     "default": {},
 }
 

@@ -113,7 +113,7 @@ class _Window:
             lo, hi = v[rows, np.maximum(k - 1, 0) // 2], v[rows, np.maximum(k, 1) // 2 - (k == 0)]
             gap = np.where(k > 0, (lo + hi) / 2, 0.0)[:, None]
         else:
-            gap = np.median(d[both] - m[both]) if both.any() else 0.0
+            gap = np.asarray(np.median(d[both] - m[both]) if both.any() else 0.0)
         sink = np.clip(np.nan_to_num(gap), -0.3 * tall, 0.3 * tall)
         return np.where(on, np.maximum(d - sink, 0.0), np.nan)
 
