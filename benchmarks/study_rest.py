@@ -11,9 +11,9 @@ distinct ways, :func:`mbinspect.design_solids.distinct_orientations`), every uni
 0-12° (``-level``: none; ``-beam``: cast through 1° cones), four reef-sized rocks among
 them. Columns: overturned units found as reefs and flagged overturned; upright units found,
 flagged overturned in error, left undecided; the top tilt's error against the true lean for
-the units upright or upside down (RMS, max, within 2σ); reefs found where no unit is (extra); ``extract_reefs`` seconds.
-The ``default`` row is the preset as it was (no unit overturned or leaning): no unit may be
-flagged.
+the units upright or upside down (RMS, max, within 2σ); reefs found where no unit is
+(extra); ``extract_reefs`` seconds. The ``default`` row is the preset as it was (no unit
+overturned or leaning): no unit may be flagged.
 
 ``--real``: four units injected into each real file that holds them (``study_inject.py``'s
 square), two of them overturned, all leaning 0-8°.
