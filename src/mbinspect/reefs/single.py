@@ -168,6 +168,8 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
                                 strict=True):
         r = with_least_depth(r, m, context, clear, noise)
         f = replace(f, least=r.least)  # the same soundings: the same least depth
+        # how it rests, from its soundings and those 0.6 m around (noise: the seabed's spread,
+        # or 5 cm when too little seabed shows to measure it)
         around = soundings_around(raster, *np.divmod(p, raster.labels.shape[1]), 6)
         rest = functools.partial(with_rest, rows=around, own=m, points=points, height=height,
                                  designs=designs, noise=noise or 0.05, ping=ping)
