@@ -5,14 +5,14 @@ design allows).
 A unit dropped badly lies on its side or upside down; one that landed on a rock or on the
 edge of a scour hole leans. The top plane is fitted to the unit's highest soundings (the
 cells of its upper surface that one plane holds, then every sounding within the noise of
-it); its tilt's 1-sigma comes from the soundings' spread about it, pings counted as
-clusters. The orientation: the design's upper surface in each orientation that looks
-different from above (:func:`mbinspect.design_solids.distinct_orientations`) placed over
-the soundings at the best bearing and position, the cells' highest soundings against the
-design's surface at the same soundings; the orientation that leaves the least misfit wins,
-and a unit is called overturned only when its best orientation beats upright by a clear
-margin. A design that looks alike every way (a solid cube) cannot tell: ``overturned`` is
-then None.
+it; :mod:`mbinspect.reefs.tilt`). The orientation: the design's upper surface in each
+orientation that looks different from above
+(:func:`mbinspect.design_solids.distinct_orientations`) placed over the soundings at the
+best bearing and position, the cells' highest soundings against the design's surface at
+the same soundings (mean absolute difference); a unit is called overturned only when another
+orientation beats upright by :data:`OVERTURNED_MARGIN` of the height and
+:data:`OVERTURNED_SHARE` of the cells where the two differ side with it. A design that looks
+alike every way (a solid cube) cannot tell: ``overturned`` is then None.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from .results import Reef
 from .tilt import CELL, cells_of, tilt_of, top_plane
 
 __all__ = ["Rest", "rest_of", "with_rest", "overturned_unit",
-           "OVERTURNED_MARGIN", "OVERTURNED_FIT"]
+           "OVERTURNED_MARGIN", "OVERTURNED_SHARE", "OVERTURNED_FIT"]
 
 #: How much better (a share of the design's height, mean absolute) an orientation other
 #: than upright must fit before a unit is called overturned ...
