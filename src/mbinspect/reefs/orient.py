@@ -228,32 +228,33 @@ _Fit = tuple[tuple[float, float, float, float], ReefDesign, str, float]
 
 def _decide(win: _Window, results: list[_Fit]) -> Rest:
     """Upright or overturned, from each design's and orientation's best fit (misfit, x, y,
-    bearing), design, orientation and scale: the best design's best upright and best other
-    orientations compared (:data:`OVERTURNED_MARGIN`, :data:`OVERTURNED_SHARE`)."""
+    bearing), design, orientation and scale: the best upright fit of any design against the
+    best other orientation of any design (:data:`OVERTURNED_MARGIN`,
+    :data:`OVERTURNED_SHARE`), so that one design upright is never taken for another
+    overturned."""
     best = min(results, key=lambda r: r[0][0])
-    d, scale = best[1], best[3]
-    mine = [r for r in results if r[1] is d]
-    up = min((r for r in mine if r[2] == "upright"), key=lambda r: r[0][0], default=None)
-    down = min((r for r in mine if r[2] != "upright"), key=lambda r: r[0][0], default=None)
+    up = min((r for r in results if r[2] == "upright"), key=lambda r: r[0][0], default=None)
+    down = min((r for r in results if r[2] != "upright"), key=lambda r: r[0][0], default=None)
     upright = math.inf if up is None else up[0][0]
     turned = math.inf if down is None else down[0][0]
     share, n_differ, note = math.nan, 0, ""
-    if up is not None and down is not None:
-        tall = d.height * scale
-        share, n_differ = win.preference(win.surface(d, up[2], *up[0][1:], scale, tall),
-                                         win.surface(d, down[2], *down[0][1:], scale, tall), tall)
     overturned: bool | None = None
-    if down is None:
-        note = f"the {d.name} design looks alike every way up: its orientation cannot be told"
-    elif n_differ < _MIN_DIFFER:
-        note = (f"{n_differ} cells where upright and {down[2]} differ (fewer than {_MIN_DIFFER}): "
-                "its orientation cannot be told")
+    if up is None or down is None:
+        note = f"the {best[1].name} design looks alike every way up: its orientation cannot be told"
     else:
-        overturned = bool(upright - turned >= OVERTURNED_MARGIN * d.height and share >= OVERTURNED_SHARE)
+        tall = max(up[1].height * up[3], down[1].height * down[3])
+        share, n_differ = win.preference(win.surface(up[1], "upright", *up[0][1:], up[3], tall),
+                                         win.surface(down[1], down[2], *down[0][1:], down[3], tall), tall)
+        if n_differ < _MIN_DIFFER:
+            note = (f"{n_differ} cells where upright and {down[2]} differ (fewer than {_MIN_DIFFER}): "
+                    "its orientation cannot be told")
+        else:
+            overturned = bool(upright - turned >= OVERTURNED_MARGIN * down[1].height * down[3]
+                              and share >= OVERTURNED_SHARE)
     chosen = up if overturned is False else down if overturned else best
     assert chosen is not None
     (m, x, y, b), resting = chosen[0], chosen[2] if overturned is not None else ""
-    return Rest(d.name, resting, overturned, m, upright, turned, x, y, b % 360.0, note=note,
+    return Rest(chosen[1].name, resting, overturned, m, upright, turned, x, y, b % 360.0, note=note,
                 turned_share=share, n_differ=n_differ)
 
 
