@@ -96,15 +96,13 @@ def _least(rows: list[tuple[float, float]]) -> list[str]:
 def _real(placements: int) -> None:
     from mbinspect.inject import inject
     from mbinspect.io import PointCloud
-    from study_inject import _files, _reef_square
+    from study_inject import _files, _reef_square, site
 
     rows = []
     for name, cloud, layout in _files():
         if layout != "square":
             continue
-        cx, cy = np.median(cloud.xyz[:, :2], axis=0)
-        lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
-        side = min(6.0, float((hi - lo).min()) / 2)
+        cx, cy, side = site(cloud)
         least, found, n = [], 0, 0
         for k in range(placements):
             try:

@@ -112,6 +112,14 @@ def _reef_square(cx: float, cy: float, side: float, rng: np.random.Generator) ->
             for i, ((u, v), (kind, scale)) in enumerate(zip(corners, kinds, strict=True))]
 
 
+def site(cloud: PointCloud, largest: float = 6.0) -> tuple[float, float, float]:
+    """Where a square of objects goes in a file: the soundings' median position and the
+    square's side, at most ``largest`` m and half the narrower of the 5-95 % extents."""
+    cx, cy = np.median(cloud.xyz[:, :2], axis=0)
+    lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
+    return float(cx), float(cy), min(largest, float((hi - lo).min()) / 2)
+
+
 def _reef_row(name: str, cloud: PointCloud, side: float, placements: int, beam: Beam | None) -> list[str]:
     """Inject the four reefs at each placement and score ``extract_reefs`` (with designs)."""
     cx, cy = np.median(cloud.xyz[:, :2], axis=0)
@@ -209,9 +217,7 @@ def main() -> None:
         for name, cloud, layout in files:
             if layout != "square":
                 continue
-            lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
-            reef_rows.append(_reef_row(name, cloud, min(6.0, float((hi - lo).min()) / 2), args.placements,
-                                       beam))
+            reef_rows.append(_reef_row(name, cloud, site(cloud)[2], args.placements, beam))
         print(table(["file", "depth m", "side m", "soundings per reef (median)", "reefs found", "false reefs",
                      "others", "height err median cm", "height err max cm", "runs stopped", "not placed"],
                     reef_rows))
@@ -220,9 +226,7 @@ def main() -> None:
         return
     rows, reasons = [], set()
     for name, cloud, layout in files:
-        cx, cy = np.median(cloud.xyz[:, :2], axis=0)
-        lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
-        side = min(SIDE, float((hi - lo).min()) / 2)
+        cx, cy, side = site(cloud, SIDE)
         hits, found, flagged, aborted, unplaced = [], 0, 0, 0, 0
         err_ok, err_all, err_seen, within, within3 = [], [], [], [], []
         for k in range(args.placements):

@@ -107,13 +107,11 @@ def _real(placements: int) -> None:
     """Piles injected into the real files (``study_inject.py``'s layouts)."""
     from mbinspect.inject import inject
     from mbinspect.io import PointCloud
-    from study_inject import RADIUS, SIDE, _files, _jacket, _row
+    from study_inject import RADIUS, SIDE, _files, _jacket, _row, site
 
     rows = []
     for name, cloud, layout in _files():
-        cx, cy = np.median(cloud.xyz[:, :2], axis=0)
-        lo, hi = np.percentile(cloud.xyz[:, :2], [5, 95], axis=0)
-        side = min(SIDE, float((hi - lo).min()) / 2)
+        cx, cy, side = site(cloud, SIDE)
         runs = []
         for k in range(placements):
             piles = _row(cloud, np.random.default_rng(k))[0] if layout == "row" else \
