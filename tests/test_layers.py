@@ -18,9 +18,9 @@ LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
          "interrupt", "timing", "neighbours", "cellsort", "solids")),
     (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
          "pipeline", "beam", "pings", "datum", "design_solids")),
-    (2, ("seabed", "filters", "segment", "least_depth")),
+    (2, ("seabed", "filters", "segment", "least_depth", "scour")),
     (3, ("piles", "reefs", "simulate", "report")),
-    (4, ("pipelines", "inject", "results")),
+    (4, ("pipelines", "inject", "results", "change")),
     (5, ("survey",)),
     (6, ("cli", "")),
 )

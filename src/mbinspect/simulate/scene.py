@@ -48,6 +48,9 @@ class Seabed:
         North of local ``y = shore_start`` the seabed rises at ``shore_slope_deg`` over
         ``shore_width`` m, then levels off, and grows rocky (RMS ``shore_roughness`` m): the
         uneven near-shore terrain the reef paper cut away by hand. None (default): no shore.
+    pits : tuple of (x, y, depth, radius)
+        Scour pits: the seabed lowered by ``depth`` (m) at local ``(x, y)``, a cosine bell
+        out to ``radius`` (m). None by default.
     extent : float
         Half-size (m) of the square where roughness is defined (flat beyond).
     seed : int
@@ -68,6 +71,7 @@ class Seabed:
     shore_width: float = 30.0
     shore_slope_deg: float = 20.0
     shore_roughness: float = 0.4
+    pits: tuple[tuple[float, float, float, float], ...] = ()
     _grid: np.ndarray = field(init=False, repr=False, compare=False)
     _cell: float = field(init=False, repr=False, compare=False)
 
@@ -128,17 +132,39 @@ class Seabed:
         """Seabed elevation (m) at local ``x, y``."""
         x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
         rise, _, scale, _ = self._shore(y)
-        return self._plane_and_waves(x, y)[0] + scale * self._rough(x, y)[0] + rise
+        z = self._plane_and_waves(x, y)[0] + scale * self._rough(x, y)[0] + rise
+        return z - self._pits(x, y)[0] if self.pits else z
 
     def gradient(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Partial derivatives dz/dx and dz/dy at local ``x, y``."""
         _, gx1, gy1 = self._plane_and_waves(x, y)
         r, gx2, gy2 = self._rough(x, y)
         _, drise, scale, dscale = self._shore(np.asarray(y, np.float64))
-        return gx1 + scale * gx2, gy1 + scale * gy2 + dscale * r + drise
+        gx, gy = gx1 + scale * gx2, gy1 + scale * gy2 + dscale * r + drise
+        if self.pits:
+            _, px, py = self._pits(np.asarray(x, np.float64), np.asarray(y, np.float64))
+            gx, gy = gx - px, gy - py
+        return gx, gy
+
+    def _pits(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """How far the pits lower the seabed at ``x, y``, and that lowering's gradient."""
+        low, gx, gy = np.zeros(np.broadcast(x, y).shape), np.zeros(np.broadcast(x, y).shape), \
+            np.zeros(np.broadcast(x, y).shape)
+        for px, py, depth, radius in self.pits:
+            dx, dy = x - px, y - py
+            r = np.hypot(dx, dy)
+            inside = r < radius
+            low = low + np.where(inside, depth * (1 + np.cos(np.pi * r / radius)) / 2, 0.0)
+            slope = np.where(inside, -depth * np.pi / (2 * radius) * np.sin(np.pi * r / radius), 0.0)
+            gx = gx + slope * dx / np.maximum(r, 1e-12)
+            gy = gy + slope * dy / np.maximum(r, 1e-12)
+        return low, gx, gy
 
     def to_dict(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}
+        if not self.pits:  # the truth of a scene without pits as it always was
+            d.pop("pits")
+        return d
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,106 @@
+"""The seabed as a grid of cell medians, sampled between cells: what two surveys of one
+place are registered on and differenced."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..grid import cell_index
+
+__all__ = ["Grid", "median_grid"]
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """Cell medians of elevation: cell ``(i, j)`` (row ``j`` north, column ``i`` east) has
+    its lower-left corner at ``(x0 + i * cell, y0 + j * cell)``; ``z`` is NaN where fewer
+    than the wanted soundings fell, ``n`` counts them."""
+
+    x0: float
+    y0: float
+    cell: float
+    z: np.ndarray
+    n: np.ndarray
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every cell's centre (x, y), each shaped like ``z``."""
+        ny, nx = self.z.shape
+        return np.meshgrid(self.x0 + (np.arange(nx) + 0.5) * self.cell,
+                           self.y0 + (np.arange(ny) + 0.5) * self.cell)
+
+    def sample(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Elevation and its gradient (dz/dx, dz/dy) at ``x, y``: each bilinear between the
+        four nearest cell centres, the gradient from central differences of the cells (a
+        cell's own difference to the next would be the slope half a cell away, and a fit
+        led by it would settle half a cell off); NaN where a cell needed is empty or outside.
+
+        Examples
+        --------
+        >>> g = Grid(0.0, 0.0, 1.0, np.arange(16.0).reshape(4, 4), np.ones((4, 4)))
+        >>> [float(v[0]) for v in g.sample(np.array([2.0]), np.array([2.0]))]
+        [7.5, 1.0, 4.0]
+        """
+        gy, gx = np.gradient(self.z, self.cell)
+        gx[:, [0, -1]] = np.nan
+        gy[[0, -1], :] = np.nan
+        return tuple(self._bilinear(v, x, y) for v in (self.z, gx, gy))  # type: ignore[return-value]
+
+    def _bilinear(self, grid: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        ny, nx = grid.shape
+        u = (np.asarray(x) - self.x0) / self.cell - 0.5
+        v = (np.asarray(y) - self.y0) / self.cell - 0.5
+        i, j = np.floor(u).astype(np.intp), np.floor(v).astype(np.intp)
+        ok = (i >= 0) & (j >= 0) & (i < nx - 1) & (j < ny - 1)
+        i, j = np.where(ok, i, 0), np.where(ok, j, 0)
+        fu, fv = u - i, v - j
+        z = ((grid[j, i] * (1 - fu) + grid[j, i + 1] * fu) * (1 - fv)
+             + (grid[j + 1, i] * (1 - fu) + grid[j + 1, i + 1] * fu) * fv)
+        return np.where(ok, z, np.nan)
+
+
+def median_grid(points: np.ndarray, x0: float, y0: float, shape: tuple[int, int], cell: float, *,
+                min_count: int = 3) -> Grid:
+    """The median elevation of the soundings in each cell of a grid.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+    x0, y0 : float
+        The grid's lower-left corner (m).
+    shape : (ny, nx)
+    cell : float
+        Cell side (m).
+    min_count : int
+        Fewer soundings leave a cell empty (NaN).
+
+    Returns
+    -------
+    Grid
+
+    Examples
+    --------
+    >>> pts = np.array([[0.5, 0.5, 1.0], [0.4, 0.6, 3.0], [0.6, 0.5, 2.0], [1.5, 0.5, 9.0]])
+    >>> median_grid(pts, 0.0, 0.0, (1, 2), 1.0).z.tolist()
+    [[2.0, nan]]
+    """
+    ny, nx = shape
+    z = np.full(shape, np.nan)
+    n = np.zeros(shape, np.int64)
+    if not len(points):
+        return Grid(x0, y0, cell, z, n)
+    i, j = cell_index(points, x0, y0, cell)
+    inside = (i >= 0) & (j >= 0) & (i < nx) & (j < ny)
+    flat = (j[inside].astype(np.int64) * nx + i[inside])
+    zs = np.asarray(points[inside, 2], np.float64)
+    order = np.lexsort((zs, flat))
+    flat, zs = flat[order], zs[order]
+    cells, start, count = np.unique(flat, return_index=True, return_counts=True)
+    lo = start + (count - 1) // 2
+    hi = start + count // 2
+    med = (zs[lo] + zs[hi]) / 2 if len(zs) else np.zeros(0)
+    keep = count >= min_count
+    z.ravel()[cells[keep]] = med[keep]
+    n.ravel()[cells] = count
+    return Grid(x0, y0, cell, z, n)

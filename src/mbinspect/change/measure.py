@@ -1,0 +1,158 @@
+"""One reef's change between two surveys, each measure with its 95 % level of detection
+(LoD): the bound a change must pass to be told from the two surveys' errors and the
+registration's.
+
+Positions come from the design fit (or the footprint) of each survey, known to
+``position_sigma`` each; the top's settlement and the exposed height from the least depths
+and their TVU; the tilt from each top plane's 1-sigma; scour from the registered
+difference map round the unit, against the seabed just beyond ``scour_reach``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..geometry import points_in_polygon
+from ..reefs.results import Reef
+from ..scour import RING, grown, scour_rings
+from .grid import Grid
+from .options import ChangeOptions
+from .register import Registration
+
+__all__ = ["reef_change", "scour_of", "CORRELATED_AREA", "Z95"]
+
+#: The two-sided normal 95 % quantile, and the 95 % radius of a round 2-D normal in sigmas.
+Z95, R95 = 1.959963984540054, 2.447746830680816
+
+#: The scour measures and their levels of detection.
+SCOUR_KEYS = ("scour_depth", "scour_depth_lod95", "scour_radius", "scour_radius_lod95", "scour_volume",
+              "scour_volume_lod95")
+
+#: The area (m²) over which a difference map's errors are shared (a beam's footprint, a
+#: ping's roll): cells within it are not independent.
+CORRELATED_AREA = 1.0
+
+
+def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarray, reg: Registration,
+                opt: ChangeOptions, *, turn: float, diff: Grid | None, diff_sigma: float
+                ) -> tuple[dict[str, Any], tuple[str, ...], tuple[str, ...]]:
+    """A matched reef's change: the values (:data:`~mbinspect.change.results.MEASURES` with
+    their ``_lod95``, and the levels read), the measures detected, and notes.
+
+    ``a_xy`` and ``a_outline`` are the after reef's centre and outline carried into the
+    before survey's frame; ``turn`` the design's symmetry (deg); ``diff`` the registered
+    difference map (after minus before) and ``diff_sigma`` its cells' noise (m).
+    """
+    v: dict[str, Any] = {"design": b.design or a.design}
+    notes: list[str] = []
+    cov = reg.plan_cov(*a_xy) + np.eye(2) * 2 * opt.position_sigma**2
+    dx, dy = a_xy[0] - b.x, a_xy[1] - b.y
+    v.update(dx=dx, dx_lod95=Z95 * math.sqrt(cov[0, 0]), dy=dy, dy_lod95=Z95 * math.sqrt(cov[1, 1]),
+             displacement=math.hypot(dx, dy), displacement_lod95=R95 * math.sqrt(np.trace(cov) / 2))
+    if math.isfinite(b.design_bearing_deg) and math.isfinite(a.design_bearing_deg) and b.design == a.design:
+        turned = a.design_bearing_deg - reg.rotation_deg - b.design_bearing_deg
+        v["rotation_deg"] = (turned + turn / 2) % turn - turn / 2
+        rs = reg.sigma_rotation_deg if math.isfinite(reg.sigma_rotation_deg) else 0.0
+        v["rotation_deg_lod95"] = Z95 * math.sqrt(2 * opt.bearing_sigma_deg**2 + rs**2)
+    else:
+        v["rotation_deg"] = v["rotation_deg_lod95"] = math.nan
+        notes.append("rotation: no design fitted in both surveys" if b.design == a.design
+                     else f"rotation: fitted as {b.design or 'no design'} before, "
+                          f"{a.design or 'no design'} after")
+    v.update(_levels(b, a, reg, notes))
+    v.update(_tilts(b, a, notes))
+    if diff is not None:
+        v.update(scour_of(diff, diff_sigma, a_xy, [np.asarray(b.outline), a_outline], reach=opt.scour_reach))
+    else:
+        v.update(dict.fromkeys(SCOUR_KEYS, math.nan))
+        notes.append("scour: no difference map")
+    detected = tuple(k for k in ("displacement", "rotation_deg", "settlement", "height_change",
+                                 "tilt_change_deg", "scour_depth")
+                     if math.isfinite(v.get(k, math.nan)) and math.isfinite(v.get(k + "_lod95", math.nan))
+                     and abs(v[k]) > v[k + "_lod95"])
+    if v["overturned_before"] is not None and v["overturned_after"] is not None \
+            and v["overturned_before"] != v["overturned_after"]:
+        detected += ("overturned",)
+    return v, detected, tuple(notes)
+
+
+def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str]) -> dict[str, Any]:
+    """Settlement of the top (least depths, registered) and the exposed heights."""
+    lb, la = b.least or {}, a.least or {}
+    db, da = _num(lb.get("least_depth")), _num(la.get("least_depth"))
+    tb, ta = _num(lb.get("least_depth_tvu95")), _num(la.get("least_depth_tvu95"))
+    out: dict[str, Any] = {"height_before": b.height, "height_after": a.height}
+    sz = reg.sigma_dz if math.isfinite(reg.sigma_dz) else math.nan
+    if math.isfinite(db) and math.isfinite(da):
+        out["settlement"] = da + reg.dz - db
+        out["settlement_lod95"] = math.sqrt(tb**2 + ta**2 + (Z95 * sz) ** 2)
+    else:  # no least depth: the tops as the pipeline read them, their bound unknown
+        out["settlement"] = (b.z_top - (a.z_top - reg.dz))
+        out["settlement_lod95"] = math.nan
+    if not math.isfinite(out["settlement_lod95"]):
+        notes.append("settlement: the least depths' TVU or the vertical registration is unknown")
+    out["height_change"] = a.height - b.height
+    out["height_change_lod95"] = math.sqrt(tb**2 + ta**2)
+    return out
+
+
+def _tilts(b: Reef, a: Reef, notes: list[str]) -> dict[str, Any]:
+    """The top plane's tilt in each survey and its change; how each unit rests."""
+    out: dict[str, Any] = {"tilt_before": b.top_tilt_deg, "tilt_after": a.top_tilt_deg,
+                           "overturned_before": b.overturned, "overturned_after": a.overturned}
+    out["tilt_change_deg"] = a.top_tilt_deg - b.top_tilt_deg
+    out["tilt_change_deg_lod95"] = Z95 * math.sqrt(b.top_tilt_sigma_deg**2 + a.top_tilt_sigma_deg**2)
+    if b.overturned or a.overturned:  # the top plane of a unit on its side is a face, not its lean
+        out["tilt_change_deg"] = out["tilt_change_deg_lod95"] = math.nan
+        notes.append("tilt: a unit overturned in one survey has no comparable top")
+    return out
+
+
+def scour_of(diff: Grid, sigma: float, centre: tuple[float, float], outlines: list[np.ndarray], *,
+             reach: float) -> dict[str, float]:
+    """Scour round one unit from the registered difference map: the lowering against the
+    seabed 2 m beyond ``reach``, read by :func:`mbinspect.scour.scour_rings`, each with its
+    level of detection from the map's noise ``sigma`` (cells within
+    :data:`CORRELATED_AREA` sharing it)."""
+    x, y = diff.centres()
+    dist = np.hypot(x - centre[0], y - centre[1])
+    near = dist <= reach + 2.0
+    pts = np.column_stack([x[near], y[near]])
+    inside = np.zeros(len(pts), bool)
+    for poly in outlines:
+        if len(poly) >= 3:
+            inside |= points_in_polygon(pts, grown(poly))
+    d, diffs = dist[near][~inside], diff.z[near][~inside]
+    ref_cells = (d > reach) & np.isfinite(diffs)
+    nan = dict.fromkeys(SCOUR_KEYS, math.nan)
+    if ref_cells.sum() < 8:
+        return nan
+    level = float(np.median(diffs[ref_cells]))
+    area = diff.cell**2
+    share = max(area / CORRELATED_AREA, 1e-9)  # the independent share of a cell
+    s = scour_rings(d, -(diffs - level), area, reach=reach)
+    if s.cells == 0:
+        return nan
+    ref_var = sigma**2 / max(ref_cells.sum() * share, 1.0)
+    depth_lod = Z95 * math.sqrt(sigma**2 / max(s.deepest_cells * share, 1.0) + ref_var)
+    vol_lod = Z95 * math.sqrt(s.cells * area**2 * sigma**2 / share + (s.cells * area) ** 2 * ref_var)
+    found = s.depth > depth_lod
+    return {"scour_depth": s.depth, "scour_depth_lod95": depth_lod,
+            "scour_radius": s.radius if found else math.nan,
+            "scour_radius_lod95": 2 * RING if found else math.nan,
+            "scour_volume": s.volume, "scour_volume_lod95": vol_lod}
+
+
+def _num(v: Any) -> float:
+    return float(v) if isinstance(v, (int, float)) and v is not None else math.nan
+
+
+def symmetry_turns(parameters: Mapping[str, Any]) -> dict[str, float]:
+    """Design name -> the turn (deg) after which it looks the same, from a result's
+    recorded designs."""
+    return {d["name"]: 360.0 / max(int(d.get("symmetry") or 1), 1)
+            for d in parameters.get("design") or [] if isinstance(d, dict) and "name" in d}

@@ -1,0 +1,42 @@
+"""The options of :func:`~mbinspect.change.compare_surveys`, as data."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..options import Options, option
+
+__all__ = ["ChangeOptions"]
+
+
+@dataclass(frozen=True)
+class ChangeOptions(Options):
+    """Options of :func:`~mbinspect.change.compare_surveys`; each is checked on creation.
+
+    Examples
+    --------
+    >>> ChangeOptions().cell
+    1.0
+    >>> ChangeOptions(max_move=-1)
+    Traceback (most recent call last):
+    ...
+    mbinspect.errors.ParameterError: max_move: -1; expected a positive finite number
+    """
+
+    cell: float = option(1.0, unit="m", check="positive",
+                         help="the seabed grid cell the surveys are registered on")
+    exclude_buffer: float = option(4.0, unit="m", check="non_negative",
+                                   help="seabed this near an object (either survey) is left out of the "
+                                        "registration: it may have moved or scoured")
+    max_move: float = option(3.0, unit="m", check="positive",
+                             help="the farthest a unit may have moved and still be matched to itself")
+    position_sigma: float = option(0.05, unit="m", check="positive",
+                                   help="a reef centre's 1-sigma in each survey (the studies: 2-5 cm)")
+    bearing_sigma_deg: float = option(1.0, unit="deg", check="positive",
+                                      help="a fitted design's bearing 1-sigma in each survey")
+    scour_reach: float = option(6.0, unit="m", check="positive",
+                                help="how far from a unit's centre the seabed is searched for scour")
+    scour_cell: float = option(0.5, unit="m", check="positive",
+                               help="the difference map's cell, on which scour is measured")
+    rotation: bool = option(True, help="estimate a small rotation between the surveys where the seabed "
+                                       "holds it")

@@ -1,0 +1,210 @@
+"""Stage list of :func:`compare_surveys`: grid both surveys' soundings, register them on the
+seabed away from the objects, carry the after survey's objects into the before survey's
+frame, match them one to one, difference the seabed, and measure each object's change."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..grid import bounds
+from ..reefs.results import Reef, ReefResult
+from ..version import __version__
+from .grid import Grid, median_grid
+from .match import match_objects
+from .measure import reef_change, symmetry_turns
+from .options import ChangeOptions
+from .register import IDENTITY, Registration, register
+from .results import ChangeResult, ObjectChange
+
+__all__ = ["compare_surveys"]
+
+
+def compare_surveys(before: ReefResult, after: ReefResult, before_points: np.ndarray,
+                    after_points: np.ndarray, *, options: ChangeOptions | None = None,
+                    progress: Callable[[float], None] | None = None,
+                    **given: Any) -> ChangeResult:
+    """Two surveys of one reef field compared, object by object.
+
+    Parameters
+    ----------
+    before, after : ReefResult
+        Each survey's reefs (:func:`~mbinspect.reefs.extract_reefs`, or read back).
+    before_points, after_points : ndarray, shape (N, 3)
+        Each survey's soundings, on the vertical reference its result records.
+    options : ChangeOptions, optional
+    progress : callable, optional
+        Called with the fraction done.
+    **given
+        Options by name (instead of ``options``).
+
+    Returns
+    -------
+    ChangeResult
+
+    Raises
+    ------
+    InputError
+        Results in different coordinate systems, or soundings that do not overlap.
+    """
+    opt = options or ChangeOptions(**given)
+    report = progress or (lambda f: None)
+    warnings = _compatible(before, after)
+    b_pts, a_pts = np.asarray(before_points, np.float64), np.asarray(after_points, np.float64)
+    lo_b, hi_b = bounds(b_pts)
+    lo_a, hi_a = bounds(a_pts)
+    lo, hi = np.maximum(lo_b, lo_a), np.minimum(hi_b, hi_a)
+    if np.any(hi - lo < 4 * opt.cell):
+        raise InputError(f"the surveys do not overlap: before spans {_span(lo_b, hi_b)}, "
+                         f"after {_span(lo_a, hi_a)}")
+    gb, ga = _grids(b_pts, a_pts, lo, hi, opt.cell)
+    report(0.3)
+    reefs, others = list(before.reefs) + list(after.reefs), before.others + after.others
+    usable = _away(gb, reefs, others, opt.exclude_buffer)
+    reg = register(gb, ga, usable, rotation=opt.rotation)
+    if reg is IDENTITY:
+        warnings.append(reg.note)
+    report(0.6)
+    db, da = _grids(b_pts, a_pts, lo, hi, opt.scour_cell)
+    diff, diff_sigma = _difference(db, da, reg, _away(db, reefs, others, opt.exclude_buffer))
+    diff = _without_objects(diff, before, after, reg)
+    objects = _objects(before, after, reg, opt, diff, diff_sigma)
+    report(1.0)
+    params = {**opt.to_dict(), "before": _record(before), "after": _record(after),
+              "difference_sigma": diff_sigma, "software": f"mbinspect {__version__}"}
+    return ChangeResult("reefs", reg, tuple(objects), params, tuple(warnings), diff)
+
+
+def _span(lo: np.ndarray, hi: np.ndarray) -> str:
+    return f"x {lo[0]:.1f}..{hi[0]:.1f}, y {lo[1]:.1f}..{hi[1]:.1f}"
+
+
+def _compatible(before: ReefResult, after: ReefResult) -> list[str]:
+    """Refuse results in different CRSs; warn of different vertical references."""
+    crs = [r.parameters.get("input", {}).get("crs") for r in (before, after)]
+    if crs[0] and crs[1] and crs[0] != crs[1]:
+        from ..cloud import crs_name
+
+        raise InputError(f"the surveys are in different coordinate systems: before {crs_name(crs[0])}, after "
+                         f"{crs_name(crs[1])}; expected one (read both with the same --crs)")
+    refs = [(r.parameters.get("vertical_reference") or {}).get("text") for r in (before, after)]
+    if refs[0] != refs[1]:
+        return [f"the surveys' vertical references differ (before: {refs[0] or 'as the files give them'}; "
+                f"after: {refs[1] or 'as the files give them'}): the registration's dz takes up the "
+                "difference"]
+    return []
+
+
+def _record(r: ReefResult) -> dict[str, Any]:
+    """What the comparison read of one result."""
+    return {"source": r.parameters.get("input", {}).get("source"), "reefs": len(r.reefs),
+            "vertical_reference": r.parameters.get("vertical_reference")}
+
+
+def _grids(b: np.ndarray, a: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: float) -> tuple[Grid, Grid]:
+    """Both surveys' cell medians on one lattice over their shared extent."""
+    x0, y0 = math.floor(lo[0] / cell) * cell, math.floor(lo[1] / cell) * cell
+    shape = (int((hi[1] - y0) / cell) + 1, int((hi[0] - x0) / cell) + 1)
+    return median_grid(b, x0, y0, shape, cell), median_grid(a, x0, y0, shape, cell)
+
+
+def _away(g: Grid, reefs: list[Reef], others: tuple[Any, ...], buffer: float) -> np.ndarray:
+    """The cells farther than ``buffer`` from every object (its outline's reach from its
+    centre, or its size)."""
+    x, y = g.centres()
+    ok = np.ones(g.z.shape, bool)
+    objs = [(r.x, r.y, _reach(r)) for r in reefs] + [(o.x, o.y, math.sqrt(max(o.area, 0.0) / math.pi))
+                                                    for o in others]
+    for ox, oy, reach in objs:
+        r = reach + buffer
+        i0, i1 = int((ox - r - g.x0) / g.cell), int((ox + r - g.x0) / g.cell) + 1
+        j0, j1 = int((oy - r - g.y0) / g.cell), int((oy + r - g.y0) / g.cell) + 1
+        i0, j0 = max(i0, 0), max(j0, 0)
+        if i1 <= i0 or j1 <= j0:
+            continue
+        sub = np.hypot(x[j0:j1, i0:i1] - ox, y[j0:j1, i0:i1] - oy) <= r
+        ok[j0:j1, i0:i1] &= ~sub
+    return ok
+
+
+def _reach(r: Reef) -> float:
+    if len(r.outline):
+        xy = np.asarray(r.outline)
+        return float(np.hypot(xy[:, 0] - r.x, xy[:, 1] - r.y).max())
+    return max(r.length, r.width) / 2
+
+
+def _difference(b: Grid, a: Grid, reg: Registration, usable: np.ndarray) -> tuple[Grid, float]:
+    """After minus before, the after survey carried onto the before survey's cells; and the
+    robust spread of its cells on the shared seabed away from the objects (m)."""
+    x, y = b.centres()
+    th = math.radians(-reg.rotation_deg)
+    rx, ry = x - reg.centre[0], y - reg.centre[1]
+    za, _, _ = a.sample(x + reg.dx + th * -ry, y + reg.dy + th * rx)
+    d = za - reg.dz - b.z
+    cells = d[usable & np.isfinite(d)]
+    sigma = 1.4826 * float(np.median(np.abs(cells - np.median(cells)))) if len(cells) > 8 else math.nan
+    return Grid(b.x0, b.y0, b.cell, d, b.n), sigma
+
+
+def _without_objects(diff: Grid, before: ReefResult, after: ReefResult, reg: Registration) -> Grid:
+    """The difference map with every object of either survey left out (its footprint grown
+    by :data:`mbinspect.scour.FOOT_MARGIN`; the after survey's carried into the before
+    frame): what is left is the seabed."""
+    from ..geometry import points_in_polygon
+    from ..scour import FOOT_MARGIN, grown
+
+    x, y = diff.centres()
+    z = diff.z.copy()
+    polys = [np.asarray(r.outline) for r in before.reefs if len(r.outline) >= 3]
+    for r in after.reefs:
+        if len(r.outline) >= 3:
+            o = np.asarray(r.outline)
+            polys.append(np.column_stack(reg.to_before(o[:, 0], o[:, 1])))
+    for poly in polys:
+        lo, hi = poly.min(axis=0) - FOOT_MARGIN - diff.cell, poly.max(axis=0) + FOOT_MARGIN + diff.cell
+        box = (x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])
+        if box.any():
+            inside = points_in_polygon(np.column_stack([x[box], y[box]]), grown(poly))
+            z.ravel()[np.flatnonzero(box.ravel())[inside]] = np.nan
+    spots = [(o.x, o.y, o.area) for o in before.others]
+    for other in after.others:
+        cx, cy = reg.to_before(np.array([other.x]), np.array([other.y]))
+        spots.append((float(cx[0]), float(cy[0]), other.area))
+    for ox, oy, area in spots:
+        z[np.hypot(x - ox, y - oy) <= math.sqrt(max(area, 0.0) / math.pi) + FOOT_MARGIN] = np.nan
+    return Grid(diff.x0, diff.y0, diff.cell, z, diff.n)
+
+
+def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: ChangeOptions, diff: Grid,
+             diff_sigma: float) -> list[ObjectChange]:
+    """Every reef of either survey with its change, before ids first."""
+    bxy = np.array([[r.x, r.y] for r in before.reefs]).reshape(-1, 2)
+    ax, ay = reg.to_before(np.array([r.x for r in after.reefs]), np.array([r.y for r in after.reefs]))
+    axy = np.column_stack([ax, ay]).reshape(-1, 2)
+    pairs = dict(match_objects(bxy, axy, max_move=opt.max_move))
+    turns = {**symmetry_turns(after.parameters), **symmetry_turns(before.parameters)}
+    out = []
+    for i, rb in enumerate(before.reefs):
+        j = pairs.get(i)
+        if j is None:
+            out.append(ObjectChange(rb.id, None, "removed", rb.x, rb.y))
+            continue
+        ra = after.reefs[j]
+        outline = np.asarray(ra.outline).reshape(-1, 2)
+        if len(outline):
+            outline = np.column_stack(reg.to_before(outline[:, 0], outline[:, 1]))
+        values, detected, notes = reef_change(rb, ra, (float(ax[j]), float(ay[j])), outline, reg, opt,
+                                              turn=turns.get(rb.design, 360.0), diff=diff,
+                                              diff_sigma=diff_sigma)
+        out.append(ObjectChange(rb.id, ra.id, "changed" if detected else "unchanged", rb.x, rb.y,
+                                float(ax[j]), float(ay[j]), values, detected, notes))
+    matched = set(pairs.values())
+    out += [ObjectChange(None, ra.id, "new", x_after=float(ax[j]), y_after=float(ay[j]),
+                         values={"height_after": ra.height, "design": ra.design})
+            for j, ra in enumerate(after.reefs) if j not in matched]
+    return out
