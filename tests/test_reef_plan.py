@@ -125,3 +125,18 @@ def test_a_permit_in_degrees_is_put_in_the_survey_crs() -> None:
         permit_in(geo, None, np.array([[500000.0, 5650000.0]]))
     wkt = read_permit("POLYGON ((10 10, 20 10, 20 20, 10 10))")
     assert permit_in(wkt, None, np.array([[15.0, 15.0]]))[1] == "--permit-area in the survey's CRS"
+
+
+def test_lines_reach_wgs84_as_lines(tmp_path):
+    """A plan offset drawn as a LineString is a list of positions in the WGS 84 file too
+    (it was once nested as rings, which no GIS reads)."""
+    import json
+
+    from mbinspect.report.gis import write_gis
+
+    line = {"type": "Feature", "properties": {},
+            "geometry": {"type": "LineString", "coordinates": [[500000.0, 4000000.0], [500010.0, 4000000.0]]}}
+    assert write_gis([line], "EPSG:32631", tmp_path, "x") == ["x.geojson", "x_projected.geojson"]
+    coords = json.loads((tmp_path / "x.geojson").read_text())["features"][0]["geometry"]["coordinates"]
+    assert len(coords) == 2 and all(len(c) == 2 and isinstance(c[0], float) for c in coords)
+    assert abs(coords[0][0] - 3.0) < 1e-6 and coords[1][0] > coords[0][0]

@@ -69,7 +69,7 @@ def compare_surveys(before: ReefResult, after: ReefResult, before_points: np.nda
     if reg is IDENTITY:
         warnings.append(reg.note)
     report(0.6)
-    db, da = _grids(b_pts, a_pts, lo, hi, opt.scour_cell)
+    db, da = _grids(b_pts, a_pts, lo, hi, opt.scour_cell, min_count=1)
     diff, diff_sigma = _difference(db, da, reg, _away(db, reefs, others, opt.exclude_buffer))
     diff = _without_objects(diff, before, after, reg)
     objects = _objects(before, after, reg, opt, diff, diff_sigma)
@@ -105,11 +105,13 @@ def _record(r: ReefResult) -> dict[str, Any]:
             "vertical_reference": r.parameters.get("vertical_reference")}
 
 
-def _grids(b: np.ndarray, a: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: float) -> tuple[Grid, Grid]:
+def _grids(b: np.ndarray, a: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: float, min_count: int = 3
+           ) -> tuple[Grid, Grid]:
     """Both surveys' cell medians on one lattice over their shared extent."""
     x0, y0 = math.floor(lo[0] / cell) * cell, math.floor(lo[1] / cell) * cell
     shape = (int((hi[1] - y0) / cell) + 1, int((hi[0] - x0) / cell) + 1)
-    return median_grid(b, x0, y0, shape, cell), median_grid(a, x0, y0, shape, cell)
+    return (median_grid(b, x0, y0, shape, cell, min_count=min_count),
+            median_grid(a, x0, y0, shape, cell, min_count=min_count))
 
 
 def _away(g: Grid, reefs: list[Reef], others: tuple[Any, ...], buffer: float) -> np.ndarray:

@@ -54,6 +54,11 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
         return 0
     out = Path(args.out) if args.out else Path(f"sim-{args.preset}-{args.seed}")
     ext = _writable()[args.format]
+    if args.resurvey:
+        return _resurvey(args, given, out, ext, rep, argv)
+    if args.changes or args.shift or args.line_shift is not None:
+        raise ParameterError("changes: --changes, --shift and --line-shift go with --resurvey TRUTH.json; "
+                             "expected --resurvey too", option="changes")
     if args.per_line:
         return _simulate_lines(args, given, out, ext, rep, argv)
     with output_dir(out, overwrite=args.overwrite) as tmp:
@@ -70,6 +75,68 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
     rep.info(f"{args.preset}: {len(sim.cloud):,} soundings, {n_obj}, written to "
              f"{out / cloud_path.name} with truth.json")
     return 0
+
+
+def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: str, rep: Reporter,
+              argv: Sequence[str]) -> int:
+    """``simulate --resurvey TRUTH.json``: the scene of an earlier simulation, changed, surveyed
+    again."""
+    import dataclasses
+    import json
+
+    from ..errors import InputError
+    from ..outputs import output_dir, write_table
+    from ..simulate import write_bundle
+    from ..simulate.resurvey import random_changes, read_changes, resurvey
+
+    if given:
+        raise ParameterError(f"{sorted(given)[0]}: the scene and sonar are the earlier simulation's under "
+                             "--resurvey; expected none of the preset's options", option=sorted(given)[0])
+    if args.per_line:
+        raise ParameterError("per_line: not with --resurvey (one file of soundings); expected one or the "
+                             "other", option="per_line")
+    path = Path(args.resurvey)
+    try:
+        truth = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a truth.json of mbinspect simulate ({exc})") from None
+    if not isinstance(truth, dict) or truth.get("preset") != args.preset or "seed" not in truth:
+        raise InputError(f"{path}: not the truth.json of a {args.preset} simulation; expected the one "
+                         f"'mbinspect simulate {args.preset}' wrote")
+    if truth.get("per_line") or truth.get("files"):
+        raise InputError(f"{path}: a simulation of one file per line; expected one simulated as one file")
+    changes = (random_changes(truth, seed=args.seed) if (args.changes or "random") == "random"
+               else read_changes(args.changes))
+    with output_dir(out, overwrite=args.overwrite, inputs=[str(path)]) as tmp:
+        sim = resurvey(truth, changes, seed=args.seed, shift=args.shift or (0.0, 0.0, 0.0),
+                       line_shift=args.line_shift, progress=rep.progress("ray casting"))
+        cloud_path = tmp / f"soundings{ext}"
+        write_bundle(tmp, {**sim.truth, "command_line": ["mbinspect", *argv]}, cloud=sim.cloud,
+                     cloud_name=cloud_path.name, labels=sim.labels, ident=sim.ident)
+        rows = [{k: ("" if v is None or (isinstance(v, float) and v != v) else v)
+                 for k, v in dataclasses.asdict(c).items()} for c in changes]
+        write_table(rows, tmp / "changes.csv", [f.name for f in dataclasses.fields(changes[0])] if changes
+                    else ["id"])
+    n = {s: sum(o["status"] == s for o in sim.truth["change"]["objects"]) for s in ("changed", "removed", "new")}
+    rep.info(f"{args.preset} surveyed again: {len(sim.cloud):,} soundings, {n['changed']} reefs changed, "
+             f"{n['removed']} removed, {n['new']} new, written to {out / cloud_path.name} with truth.json (its 'change') and changes.csv")
+    return 0
+
+
+def _triple(text: str) -> tuple[float, float, float]:
+    """``dx,dy,dz`` in metres."""
+    import math
+
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}; expected three numbers dx,dy,dz in metres") from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r}; expected three finite numbers dx,dy,dz in metres")
+    return values[0], values[1], values[2]
 
 
 def _simulate_lines(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: str, rep: Reporter,
@@ -113,5 +180,20 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--per-line", action="store_true",
                    help="write one file per survey line (line_001.laz ...), streaming line by line: a survey "
                         "of any size in the memory of one line")
+    g = p.add_argument_group("survey again (change between surveys)")
+    g.add_argument("--resurvey", metavar="TRUTH.json",
+                   help="the scene of an earlier simulation (its truth.json), changed by --changes and "
+                        "surveyed again with other lines and noise (--seed); truth.json gains 'change', the "
+                        "true change of every reef")
+    g.add_argument("--changes", metavar="CSV",
+                   help="with --resurvey: id,status,dx,dy,rotation_deg,settlement,orientation,tilt_deg,"
+                        "tilt_bearing_deg,scour_depth,scour_radius[,kind,x,y,bearing_deg] per reef, or "
+                        "'random' (the default: about half the reefs changed one way each)")
+    g.add_argument("--shift", type=_triple, metavar="DX,DY,DZ",
+                   help="with --resurvey: metres added to every sounding (the new survey's position and "
+                        "datum offset); default 0,0,0")
+    g.add_argument("--line-shift", type=typed_parser(float, "line_shift"), metavar="M",
+                   help="with --resurvey: the lines moved across their track (m); default half the line "
+                        "spacing")
     _add_simulate_options(p)
     p.set_defaults(func=_cmd_simulate)

@@ -91,7 +91,7 @@ def write_gis(features: list[dict[str, Any]], crs: str | None, out: Path, stem: 
     Parameters
     ----------
     features : list of dict
-        Point or Polygon features in the survey's projected coordinates (m).
+        Point, LineString or Polygon features in the survey's projected coordinates (m).
     crs : str or None
         Their CRS (WKT); None: one file in those coordinates, saying so.
     out : Path
@@ -113,6 +113,10 @@ def write_gis(features: list[dict[str, Any]], crs: str | None, out: Path, stem: 
         if geom["type"] == "Point":
             lon, lat = to_lonlat(np.array([geom["coordinates"][0]]), np.array([geom["coordinates"][1]]))
             return {"type": "Point", "coordinates": [float(lon[0]), float(lat[0])]}
+        if geom["type"] == "LineString":  # a list of positions, not of rings
+            lon, lat = to_lonlat(*np.asarray(geom["coordinates"], np.float64).reshape(-1, 2).T)
+            return {"type": "LineString",
+                    "coordinates": [[float(a), float(b)] for a, b in zip(lon, lat, strict=True)]}
         rings = []
         for ring in geom["coordinates"]:
             lon, lat = to_lonlat(*np.asarray(ring, np.float64).reshape(-1, 2).T)

@@ -209,7 +209,7 @@ def resurvey(truth: Mapping[str, Any], changes: Sequence[Change], *, seed: int,
                              option="id")
     scene = _changed_scene(setup.scene, changes, setup.opt)
     spacing = float(getattr(setup.opt, "line_spacing", 20.0))
-    plan = Survey(_other_lines(setup.plan.lines, spacing / 2 if line_shift is None else line_shift),
+    plan = Survey(_other_lines(setup.plan.lines, spacing / 2 if line_shift is None else line_shift, spacing),
                   setup.sonar)
     cloud, labels, ident = survey(scene, plan, seed=int(np.random.SeedSequence(seed).generate_state(1)[0]),
                                   progress=progress)
@@ -227,14 +227,21 @@ def _plain(d: Mapping[str, Any]) -> dict[str, Any]:
     return {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
 
 
-def _other_lines(lines: Sequence[Line], across: float) -> tuple[Line, ...]:
+def _other_lines(lines: Sequence[Line], across: float, spacing: float) -> tuple[Line, ...]:
     """The lines moved ``across`` m to the left of the first line's track, each sailed the
-    other way."""
+    other way, and one more a line ``spacing`` beyond the first, so that the moved lines
+    cover both edges of the old ones."""
     v = np.asarray(lines[0].vertices, np.float64)
     u = (v[-1] - v[0]) / max(float(np.hypot(*(v[-1] - v[0]))), 1e-9)
-    n = np.array([-u[1], u[0]]) * across
-    return tuple(dataclasses.replace(ln, vertices=tuple((float(x + n[0]), float(y + n[1]))
-                                                        for x, y in reversed(ln.vertices))) for ln in lines)
+    n = np.array([-u[1], u[0]])
+
+    def moved(ln: Line, by: float, back: bool) -> Line:
+        pts = reversed(ln.vertices) if back else ln.vertices
+        return dataclasses.replace(ln, vertices=tuple((float(x + n[0] * by), float(y + n[1] * by))
+                                                      for x, y in pts))
+
+    # the lines alternate their heading: the extra line keeps the alternation
+    return (moved(lines[0], across - spacing, False),) + tuple(moved(ln, across, True) for ln in lines)
 
 
 def _changed_scene(scene: Scene, changes: Sequence[Change], opt: Any) -> Scene:

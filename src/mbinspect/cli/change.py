@@ -1,0 +1,120 @@
+"""``mbinspect change``: two surveys of one reef field compared, unit by unit."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .common import Reporter, add_output, subcommand
+
+
+def add_parser(sub: Any) -> None:
+    """``mbinspect change BEFORE AFTER``."""
+    from ..change import ChangeOptions
+    from .flags import add_flags
+
+    p = subcommand(sub, "change", "compare two surveys of one reef field, unit by unit",
+             "Register the AFTER survey on the BEFORE survey's seabed away from the objects (vertical "
+             "offset, plan shift, small rotation, each with its 1-sigma), match the reefs one to one, and give each "
+             "its displacement, turn, settlement, height, tilt, how it rests and the scour round it, every "
+             "change with its 95 % level of detection (a change inside it is 'no detectable change'). "
+             "BEFORE and AFTER are result folders (or reefs.json) written by 'mbinspect reefs'; their "
+             "soundings are read again from the files the results record. Writes change.json, change.csv, "
+             "change.geojson, difference.png and report.html.",
+             "example:\n  mbinspect reefs survey-2025/ --design cross2 --out reefs-2025\n"
+             "  mbinspect reefs survey-2026/ --design cross2 --out reefs-2026\n"
+             "  mbinspect change reefs-2025 reefs-2026 --out change-2025-2026")
+    p.add_argument("before", help="the earlier survey's result folder or reefs.json")
+    p.add_argument("after", help="the later survey's result folder or reefs.json")
+    g = p.add_argument_group("change (every option of mbinspect.change.ChangeOptions)")
+    add_flags(g, ChangeOptions)
+    add_output(p, "change-out")
+    p.set_defaults(func=cmd_change)
+
+
+def cmd_change(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
+    """Compare the two results and write the change."""
+    from ..change import ChangeOptions, compare_surveys
+    from ..change.outputs import write_change_outputs
+    from ..outputs import output_dir
+    from ..report import crs_of
+    from .flags import given_options
+
+    options = ChangeOptions.from_given(given_options(args, ChangeOptions))
+    before, b_pts, b_files = _side(args.before, "before", rep)
+    after, a_pts, a_files = _side(args.after, "after", rep)
+    out = Path(args.out or "change-out")
+    with output_dir(out, overwrite=args.overwrite, inputs=[*b_files, *a_files]) as tmp:
+        result = compare_surveys(before, after, b_pts, a_pts, options=options,
+                                 progress=rep.progress("comparing"))
+        params = {**result.parameters, "command_line": ["mbinspect", *argv],
+                  "before_result": str(args.before), "after_result": str(args.after)}
+        import dataclasses
+
+        result = dataclasses.replace(result, parameters=params)
+        write_change_outputs(result, tmp, crs=crs_of(before), figures=not args.no_figures)
+    if rep.verbosity >= 0:
+        _print(result)
+    rep.info(f"results in {out}/ (report.html, change.json, change.csv, change.geojson)")
+    return 0
+
+
+def _print(result: Any) -> None:
+    c = result.counts()
+    reg = result.registration
+    print(f"registration: dx {reg.dx:+.3f} ± {reg.sigma_dx:.3f} m, dy {reg.dy:+.3f} ± {reg.sigma_dy:.3f} m, "
+          f"dz {reg.dz:+.3f} ± {reg.sigma_dz:.3f} m (1-sigma)" if math.isfinite(reg.sigma_dz)
+          else f"registration: none ({reg.note})")
+    print(f"{c['changed']} changed, {c['unchanged']} no detectable change, {c['removed']} removed, "
+          f"{c['new']} new")
+    words = {"displacement": "moved", "rotation_deg": "turned", "settlement": "settled",
+             "height_change": "height changed", "tilt_change_deg": "tilted", "scour_depth": "scoured"}
+    for o in result.objects:
+        if o.status != "changed":
+            continue
+        parts = [f"{words[k]} {o.values[k]:+.2f} ± {o.values[k + '_lod95']:.2f}"
+                 for k in o.detected if k in words]
+        if "overturned" in o.detected:
+            parts.append("overturned" if o.values.get("overturned_after") else "upright again")
+        print(f"  reef {o.id_before} (after: {o.id_after}): " + ", ".join(parts))
+    for w in result.warnings:
+        print(f"mbinspect: warning: {w}")
+
+
+def _side(path: str, which: str, rep: Reporter) -> tuple[Any, Any, list[str]]:
+    """One side's result and its soundings, read again from the files it records."""
+    from ..errors import InputError, ParameterError
+    from ..io import sha256_of
+    from ..piles.results import PileResult
+    from ..results import read_result
+    from ..survey.inputs import READ_OPTIONS, read_survey
+
+    result = read_result(path)
+    if isinstance(result, PileResult):
+        raise ParameterError(f"{which}: {path} holds piles; expected a reefs result (piles between surveys "
+                             "are not compared yet)", option=which)
+    params = result.parameters
+    inputs = params.get("input") or {}
+    records = inputs.get("files") or ([inputs] if "file" in inputs else [])
+    if not records:
+        raise InputError(f"{path}: the result records no input files (made from an array, or by an older "
+                         "mbinspect); expected a result written by 'mbinspect reefs'")
+    base = Path(path) if Path(path).is_dir() else Path(path).parent
+    files = []
+    for rec in records:
+        f = Path(rec["file"])
+        if not f.is_file() and (base.parent / f).is_file():
+            f = base.parent / f
+        if not f.is_file():
+            raise InputError(f"{path}: its input {rec['file']} is not there; expected the survey file the "
+                             "result was made from")
+        if rec.get("sha256") and sha256_of(f) != rec["sha256"]:
+            raise InputError(f"{f}: not the file {path} was made from (its sha256 differs); expected the "
+                             "same survey file")
+        files.append(str(f))
+    reading = {k: v for k, v in (params.get("reading") or {}).items() if k in READ_OPTIONS}
+    cloud = read_survey([Path(f) for f in files], progress=rep.progress(f"reading {which}"), **reading)
+    return result, cloud.xyz, files
