@@ -87,7 +87,7 @@ def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: s
     from ..errors import InputError
     from ..outputs import output_dir, write_table
     from ..simulate import write_bundle
-    from ..simulate.resurvey import random_changes, read_changes, resurvey
+    from ..simulate.resurvey import Change, random_changes, read_changes, resurvey
 
     if given:
         raise ParameterError(f"{sorted(given)[0]}: the scene and sonar are the earlier simulation's under "
@@ -117,11 +117,12 @@ def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: s
                      cloud_name=cloud_path.name, labels=sim.labels, ident=sim.ident)
         rows = [{k: ("" if v is None or (isinstance(v, float) and v != v) else v)
                  for k, v in dataclasses.asdict(c).items()} for c in changes]
-        write_table(rows, tmp / "changes.csv", [f.name for f in dataclasses.fields(changes[0])] if changes
-                    else ["id"])
-    n = {s: sum(o["status"] == s for o in sim.truth["change"]["objects"]) for s in ("changed", "removed", "new")}
+        write_table(rows, tmp / "changes.csv", [f.name for f in dataclasses.fields(Change)])
+    objs = sim.truth["change"]["objects"]
+    n = {s: sum(o["status"] == s for o in objs) for s in ("changed", "removed", "new")}
     rep.info(f"{args.preset} surveyed again: {len(sim.cloud):,} soundings, {n['changed']} reefs changed, "
-             f"{n['removed']} removed, {n['new']} new, written to {out / cloud_path.name} with truth.json (its 'change') and changes.csv")
+             f"{n['removed']} removed, {n['new']} new, written to {out / cloud_path.name} with truth.json (its "
+             "'change') and changes.csv")
     return 0
 
 
