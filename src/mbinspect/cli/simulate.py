@@ -121,8 +121,8 @@ def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: s
     objs = sim.truth["change"]["objects"]
     n = {s: sum(o["status"] == s for o in objs) for s in ("changed", "removed", "new")}
     rep.info(f"{args.preset} surveyed again: {len(sim.cloud):,} soundings, {n['changed']} reefs changed, "
-             f"{n['removed']} removed, {n['new']} new, written to {out / cloud_path.name} with truth.json (its "
-             "'change') and changes.csv")
+             f"{n['removed']} removed, {n['new']} new, written to {out / cloud_path.name} with truth.json "
+             "(its 'change') and changes.csv")
     return 0
 
 
