@@ -17,12 +17,12 @@ def add_parser(sub: Any) -> None:
     from .flags import add_flags
 
     p = subcommand(sub, "change", "compare two surveys of one reef field, unit by unit",
-             "Register the AFTER survey on the BEFORE survey"s seabed away from the objects (vertical "
+             "Register the AFTER survey on the BEFORE survey's seabed away from the objects (vertical "
              "offset, plan shift, small rotation, each with its 1-sigma), match the reefs one to one, "
-             "and give each its displacement, turn, settlement, height, tilt, how it rests and the scour"
-             " round it, every change with its 95 % level of detection (a change inside it is "no "
-             "detectable change"). BEFORE and AFTER are result folders (or reefs.json) written by "
-             ""mbinspect reefs"; their soundings are read again from the files the results record. "
+             "and give each its displacement, turn, settlement, height, tilt, how it rests and the "
+             "scour round it, every change with its 95 % level of detection (a change inside it is "
+             "'no detectable change'). BEFORE and AFTER are result folders (or reefs.json) written by "
+             "'mbinspect reefs'; their soundings are read again from the files the results record. "
              "Writes change.json, change.csv, change.geojson, difference.png and report.html.",
              "example:\n  mbinspect reefs survey-2025/ --design cross2 --out reefs-2025\n"
              "  mbinspect reefs survey-2026/ --design cross2 --out reefs-2026\n"
