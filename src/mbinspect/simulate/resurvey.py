@@ -157,9 +157,12 @@ def random_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5, m
         elif way == "overturn":
             out.append(Change(rid, orientation="on its side"))
         elif way == "scour":
+            # the pit stops short of the nearest neighbour (it would hang that unit in the water)
             size = max(r["length"], r["width"])
-            out.append(Change(rid, scour_depth=rng.uniform(0.15, scour),
-                              scour_radius=size / 2 + rng.uniform(1.5, 3)))
+            room = min((math.hypot(o["x"] - r["x"], o["y"] - r["y"]) - max(o["length"], o["width"]) / 2
+                        for o in reefs if o["id"] != rid), default=10.0)
+            radius = min(size / 2 + rng.uniform(1.5, 3), max(room - 0.3, size / 2 + 0.5))
+            out.append(Change(rid, scour_depth=rng.uniform(0.15, scour), scour_radius=radius))
         else:
             out.append(Change(rid, status="removed"))
     return tuple(out)
