@@ -3,11 +3,13 @@ units moved and turned, settled, tilted, overturned, removed, scoured round, and
 sailed on other lines with other noise and a datum and position offset; each survey's reefs
 extracted, then compared (:func:`mbinspect.change.compare_surveys`) against the true change.
 
-Run: ``python benchmarks/study_change.py [--seeds 10] [--configs default,...] [--workers 2]``.
+Run: ``python benchmarks/study_change.py [--seeds 10] [--configs default,...] [--workers 2]``;
+``--real [--placements 3]``: reefs injected into the real files instead (:func:`_real`).
 
-Rows per configuration: the registration's error against the offset applied (and the share
-within 2 sigma; the applied offset is not the whole truth: each survey's lines carry their
-own vertical offsets, whose mean differs from survey to survey), how the units were matched,
+Rows per configuration: the registration's error against the offset applied in plan and,
+in height, against the offset the two surveys realise (the one applied plus the difference
+of the surveys' own datums: each line keeps its vertical offset, and a survey's seabed
+soundings sit at their mix over the true seabed), with the share within 2 sigma; how the units were matched,
 and per kind of change how many were found (the right measure detected) and how many
 unchanged units were called changed; the errors of the measures against the truth and the
 share of measures within their 95 % level of detection.
@@ -25,6 +27,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import run_study, table  # noqa: E402
 from mbinspect.change import compare_surveys  # noqa: E402
+
+DESIGNS = "cross2,cross1,hollow,triangle"
 from mbinspect.reefs import extract_reefs  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 from mbinspect.simulate.resurvey import random_changes, resurvey  # noqa: E402
@@ -55,12 +59,30 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     ra = extract_reefs(after.cloud, design=designs, seed=seed)
     res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz)
     kinds = {c.id: _kind(c) for c in changes}
-    return [_score(name, seed, res, before.truth, after.truth, shift, kinds)]
+    out = _score(name, seed, res, before.truth, after.truth, shift, kinds)
+    out["realised_dz"] = shift[2] + _datum(after, shift) - _datum(before, (0.0, 0.0, 0.0))
+    return [out]
+
+
+def _datum(sim, shift) -> float:
+    """The vertical offset a survey's lines realise: the median of its seabed soundings'
+    heights over the true seabed (each line keeps its own offset; their mix is the survey's
+    datum), away from the scour pits."""
+    ox, oy = sim.scene.origin
+    sea = sim.labels == 0
+    xyz = sim.cloud.xyz[sea] - np.asarray(shift)
+    x, y = xyz[:, 0] - ox, xyz[:, 1] - oy
+    far = np.ones(len(x), bool)
+    for px, py, _, r in sim.scene.seabed.pits:
+        far &= np.hypot(x - px, y - py) > r
+    return float(np.median(xyz[far, 2] - sim.scene.seabed.elevation(x[far], y[far])))
 
 
 def _kind(c) -> str:
     if c.status == "removed":
         return "remove"
+    if c.status == "new":
+        return "new"
     if c.dx or c.dy:
         return "move"
     if c.settlement:
@@ -93,22 +115,24 @@ def _score(name, seed, res, tb, ta, shift, kinds) -> dict:
 
 
 def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list[str]]]:
-    reg = np.array([[*r["reg"], *r["shift"]] for r in rs])
+    reg = np.array([[*r["reg"], *r["shift"][:2], r["realised_dz"]] for r in rs])
     err = reg[:, :3] - reg[:, 6:9]
     sig = reg[:, 3:6]
     within = np.abs(err) <= 2 * sig
     found: Counter[str] = Counter()
     total: Counter[str] = Counter()
     false_calls, unchanged, right, wrong = 0, 0, 0, 0
+    why: Counter[str] = Counter()
     errs: dict[str, list[tuple[float, float]]] = {k: [] for k in ("displacement", "settlement", "scour_depth",
                                                                    "rotation_deg", "tilt_change_deg")}
     for r in rs:
         for k in r["kinds"].values():
             total[k] += 1
-        seen_removed = {row["ib"] for row in r["rows"] if row["status"] == "removed"}
+        seen = {row["ib"] for row in r["rows"] if row["status"] == "removed"}
+        seen_new = {row["ia"] for row in r["rows"] if row["status"] == "new"}
         for rid, k in r["kinds"].items():
-            if k == "remove" and rid in seen_removed:
-                found["remove"] += 1
+            found["remove"] += k == "remove" and rid in seen
+            found["new"] += k == "new" and rid in seen_new
         for row in r["rows"]:
             if row["ib"] is None or row["ia"] is None:
                 continue
@@ -121,6 +145,7 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
             if k is None:
                 unchanged += 1
                 false_calls += bool(row["detected"])
+                why.update(row["detected"])
             elif k in SHOWN and SHOWN[k] in row["detected"]:
                 found[k] += 1
             for m in errs:
@@ -135,8 +160,9 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
                *(f"{100 * within[:, k].mean():.0f} %" for k in range(3)),
                *(f"{1000 * np.median(sig[:, k]):.0f}" for k in range(3))]
     det_row = [name, f"{right}", f"{wrong}", *(f"{found[k]}/{total[k]}" for k in
-                                                ("move", "settle", "tilt", "overturn", "scour", "remove")),
-               f"{false_calls}/{unchanged}"]
+                                                ("move", "settle", "tilt", "overturn", "scour", "remove",
+                                                 "new")),
+               f"{false_calls}/{unchanged}", ", ".join(f"{k} {v}" for k, v in why.most_common())]
     err_rows = []
     for m, e in errs.items():
         if e:
@@ -148,7 +174,116 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
     return reg_row, det_row, err_rows
 
 
+#: The changes made to the injected square on a real background: unit index -> (what, InjectedReef fields).
+REAL_CHANGES = {0: ("move", {"dx": 0.8, "turn": 15.0}), 1: ("settle", {"burial": 0.25}),
+                2: ("overturn", {"orientation": "on its side"}), 3: ("none", {})}
+
+
+def _real(placements: int) -> None:
+    """Reefs injected into each real file that holds a square of them, the file's pings
+    split in two (even and odd): two surveys of one place with the real seabed and the real
+    noise, each epoch's noise from other pings of the same lines. No public pair of real
+    surveys of one place holds objects; this is the file against itself with its noise
+    resampled by the pings. The second epoch's units changed as :data:`REAL_CHANGES` says,
+    and its soundings offset by (0.2, -0.1, 0.08) m."""
+    from dataclasses import replace
+
+    from mbinspect.errors import MBInspectError
+    from mbinspect.inject import inject
+    from mbinspect.io import PointCloud
+    from study_inject import _files, _reef_square, site
+
+    shift = np.array([0.2, -0.1, 0.08])
+    rows = []
+    for name, cloud, layout in _files():
+        if layout != "square" or "ping" not in cloud.fields:
+            continue
+        cx, cy, side = site(cloud)
+        even = (np.asarray(cloud.fields["ping"]) % 2) == 0
+        halves = [PointCloud(cloud.xyz[m], {k: np.asarray(v)[m] for k, v in cloud.fields.items()},
+                             crs=cloud.crs) for m in (even, ~even)]
+        tally: Counter[str] = Counter()
+        regs, errs = [], []
+        for k in range(placements):
+            square = _reef_square(cx, cy, side, np.random.default_rng(k))
+            changed = []
+            for i, u in enumerate(square):
+                what, how = REAL_CHANGES.get(i, ("none", {}))
+                if what == "move":
+                    a = np.random.default_rng(k).uniform(0, 2 * math.pi)
+                    u2 = replace(u, x=u.x + how["dx"] * math.sin(a), y=u.y + how["dx"] * math.cos(a),
+                                 bearing_deg=u.bearing_deg + how["turn"])
+                elif what == "settle":
+                    u2 = replace(u, burial=u.burial + how["burial"])
+                elif what == "overturn":
+                    u2 = replace(u, orientation=how["orientation"])
+                else:
+                    u2 = u
+                changed.append(u2)
+            try:
+                ib = inject(halves[0].xyz, halves[0].fields, reefs=square)
+                ia = inject(halves[1].xyz, halves[1].fields, reefs=changed)
+                a_xyz = ia.xyz + shift
+                rb = extract_reefs(PointCloud(ib.xyz, dict(halves[0].fields)), design=DESIGNS,
+                                   design_scale_tolerance=0.35)
+                ra = extract_reefs(PointCloud(a_xyz, dict(halves[1].fields)), design=DESIGNS,
+                                   design_scale_tolerance=0.35)
+                res = compare_surveys(rb, ra, ib.xyz, a_xyz)
+            except MBInspectError as exc:
+                tally["stopped"] += 1
+                tally["why: " + str(exc)[:60]] += 1
+                continue
+            g = res.registration
+            regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dz))
+            truth_b = ib.truth["reefs"]
+            for i in range(len(square)):
+                what = REAL_CHANGES.get(i, ("none", {}))[0]
+                tally["units"] += 1
+                tx, ty = truth_b[i]["x"], truth_b[i]["y"]
+                o = next((o for o in res.objects if o.id_before is not None
+                          and math.hypot(o.x_before - tx, o.y_before - ty) < 1.0), None)
+                if o is None:
+                    tally["not found before"] += 1
+                    continue
+                shown = {"move": "displacement", "settle": "settlement", "overturn": "overturned"}.get(what)
+                if what == "none":
+                    tally["unchanged called changed"] += o.status == "changed"
+                    tally["unchanged"] += 1
+                elif o.status in ("removed", "new"):
+                    tally[f"{what}: not matched"] += 1
+                else:
+                    tally[f"{what}: found"] += shown in o.detected
+                    tally[f"{what}: n"] += 1
+                if what == "move" and o.status == "changed":
+                    errs.append(o.values["displacement"] - 0.8)
+        r = np.array(regs).reshape(-1, 5)
+        rows.append([name[:34], f"{len(regs)}/{placements}",
+                     f"{tally['move: found']}/{tally['move: n']}",
+                     f"{tally['settle: found']}/{tally['settle: n']}",
+                     f"{tally['overturn: found']}/{tally['overturn: n']}",
+                     f"{tally['unchanged called changed']}/{tally['unchanged']}",
+                     f"{1000 * math.sqrt(np.mean(r[:, 0] ** 2 + r[:, 1] ** 2)):.0f}" if len(r) else "-",
+                     f"{1000 * math.sqrt(np.mean(r[:, 2] ** 2)):.0f}" if len(r) else "-",
+                     f"{1000 * np.median(r[:, 3]):.0f}" if len(r) else "-",
+                     f"{1000 * np.median(r[:, 4]):.0f}" if len(r) else "-",
+                     f"{1000 * math.sqrt(np.mean(np.square(errs))):.0f}" if errs else "-"])
+    print(table(["file (pings split even/odd)", "placements run", "moved 0.8 m found", "settled 0.25 m",
+                 "overturned", "unchanged called changed", "plan reg err RMS mm", "dz err RMS mm",
+                 "median σ dx mm", "median σ dz mm", "displacement err RMS mm"], rows))
+
+
 def main() -> None:
+    import argparse
+
+    from _common import own_flags
+
+    ap = argparse.ArgumentParser(add_help=False)
+    ap.add_argument("--real", action="store_true")
+    ap.add_argument("--placements", type=int, default=3)
+    known = own_flags(ap)
+    if known.real:
+        _real(known.placements)
+        return
     chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
     regs, dets, errs = [], [], []
     for name in chosen:
@@ -161,7 +296,7 @@ def main() -> None:
                  "dy", "dz"], regs))
     print()
     print(table(["config", "matched right", "matched wrong", "moved found", "settled", "tilted", "overturned",
-                 "scoured", "removed", "unchanged called changed"], dets))
+                 "scoured", "removed", "new", "unchanged called changed", "by"], dets))
     print()
     print(table(["config", "measure", "n", "error RMS", "max", "within LoD95", "median LoD95"], errs))
 

@@ -138,7 +138,7 @@ def random_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5, m
     """Changes for a study: about ``share`` of the reefs changed, each in one way drawn at
     random (moved up to ``move`` m and turned up to 30°, settled 0.05 to ``settle`` m,
     tilted 3 to 12°, overturned, scoured up to ``scour`` m deep, or removed), the rest left
-    alone, and one new reef placed in the field's widest gap."""
+    alone, and one new reef placed in the field at least 6 m from the others."""
     rng = np.random.default_rng(seed)
     reefs = list(truth["reefs"])
     out = []
@@ -165,7 +165,23 @@ def random_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5, m
             out.append(Change(rid, scour_depth=rng.uniform(0.15, scour), scour_radius=radius))
         else:
             out.append(Change(rid, status="removed"))
+    spot = _free_spot(reefs, rng)
+    if spot is not None:
+        kind = str(rng.choice(sorted({r["kind"] for r in reefs})))
+        out.append(Change(max(r["id"] for r in reefs) + 1, status="new", kind=kind, x=spot[0], y=spot[1],
+                          bearing_deg=float(rng.uniform(0, 360))))
     return tuple(out)
+
+
+def _free_spot(reefs: Sequence[Mapping[str, Any]], rng: np.random.Generator) -> tuple[float, float] | None:
+    """A place inside the field at least 6 m from every reef's centre (None: no room)."""
+    xy = np.array([[r["x"], r["y"]] for r in reefs])
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    for _ in range(2000):
+        p = rng.uniform(lo, hi)
+        if np.hypot(*(xy - p).T).min() >= 6.0:
+            return float(p[0]), float(p[1])
+    return None
 
 
 def resurvey(truth: Mapping[str, Any], changes: Sequence[Change], *, seed: int,
