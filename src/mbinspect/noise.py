@@ -125,10 +125,11 @@ def seabed_residuals(points: np.ndarray, *, ping: np.ndarray | None = None, k: i
     n = len(pts)
     local = pts - pts.mean(axis=0)  # a local frame: the result does not depend on the origin
     out = np.empty(n)
-    if ping is None:
+    odd = None if ping is None else (np.asarray(ping, np.int64) % 2).astype(bool)
+    if odd is None or odd.all() or not odd.any():
+        # pings of one parity only (one ping, or every other ping kept): each fits its own
         groups = [(np.arange(n), np.arange(n))]
     else:
-        odd = (np.asarray(ping, np.int64) % 2).astype(bool)
         groups = [(np.flatnonzero(~odd), np.flatnonzero(odd)), (np.flatnonzero(odd), np.flatnonzero(~odd))]
     for rows, base in groups:
         if len(rows) == 0:

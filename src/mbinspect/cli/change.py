@@ -24,11 +24,19 @@ def add_parser(sub: Any) -> None:
              "'no detectable change'). BEFORE and AFTER are result folders (or reefs.json) written by "
              "'mbinspect reefs'; their soundings are read again from the files the results record. "
              "Writes change.json, change.csv, change.geojson, difference.png and report.html.",
-             "example:\n  mbinspect reefs survey-2025/ --design cross2 --out reefs-2025\n"
+             "examples:\n  mbinspect reefs survey-2025/ --design cross2 --out reefs-2025\n"
              "  mbinspect reefs survey-2026/ --design cross2 --out reefs-2026\n"
-             "  mbinspect change reefs-2025 reefs-2026 --out change-2025-2026")
-    p.add_argument("before", help="the earlier survey's result folder or reefs.json")
-    p.add_argument("after", help="the later survey's result folder or reefs.json")
+             "  mbinspect change reefs-2025 reefs-2026 --out change-2025-2026 --register site.gpkg\n"
+             "  mbinspect change site.gpkg --out change-last        (the register's last two surveys)\n"
+             "  mbinspect change site.gpkg --history 17             (one unit's life)")
+    p.add_argument("before", help="the earlier survey's result folder or reefs.json, or a site register "
+                   "(.gpkg)")
+    p.add_argument("after", nargs="?", help="the later survey's result folder or reefs.json")
+    p.add_argument("--register", metavar="SITE.gpkg",
+                   help="add the comparison to a site register (a GeoPackage, created when new): the "
+                        "surveys, every unit with its history, every change")
+    p.add_argument("--history", type=int, metavar="ID",
+                   help="with a register as BEFORE: print one unit's life (its id in the register)")
     g = p.add_argument_group("change (every option of mbinspect.change.ChangeOptions)")
     add_flags(g, ChangeOptions)
     add_output(p, "change-out")
@@ -39,11 +47,27 @@ def cmd_change(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     """Compare the two results and write the change."""
     from ..change import ChangeOptions, compare_surveys
     from ..change.outputs import write_change_outputs
+    from ..errors import ParameterError
     from ..outputs import output_dir
     from ..report import crs_of
     from .flags import given_options
 
     options = ChangeOptions.from_given(given_options(args, ChangeOptions))
+    if str(args.before).lower().endswith(".gpkg") and args.after is None:
+        from ..change.site import last_two
+
+        if args.history is not None:
+            return _history(args.before, args.history)
+        if args.register:
+            raise ParameterError("register: the register's last two surveys are in it already; expected "
+                                 "BEFORE AFTER result folders to add a survey", option="register")
+        args.before, args.after = last_two(args.before)
+    elif args.after is None:
+        raise ParameterError(f"after: missing; expected the later survey's result after {args.before} (or a "
+                             "site register .gpkg alone)", option="after")
+    elif args.history is not None:
+        raise ParameterError("history: goes with a register alone (mbinspect change SITE.gpkg --history ID)",
+                             option="history")
     before, b_pts, b_files = _side(args.before, "before", rep)
     after, a_pts, a_files = _side(args.after, "after", rep)
     out = Path(args.out or "change-out")
@@ -56,9 +80,37 @@ def cmd_change(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
 
         result = dataclasses.replace(result, parameters=params)
         write_change_outputs(result, tmp, crs=crs_of(before), figures=not args.no_figures)
+        if args.register:  # last, so that a register refused leaves no results behind
+            from ..change.site import register_change
+
+            added = register_change(args.register, result, before, after, before_path=args.before,
+                                    after_path=args.after, crs=crs_of(before))
+            rep.info(f"{args.register}: surveys {added['survey_before']} and {added['survey_after']}, "
+                     f"{added['objects']} units in all")
     if rep.verbosity >= 0:
         _print(result)
     rep.info(f"results in {out}/ (report.html, change.json, change.csv, change.geojson)")
+    return 0
+
+
+def _history(path: str, obj: int) -> int:
+    """Print one unit's life from a register."""
+    from ..change.site import history
+    from ..report.html import number
+
+    h = history(path, obj)
+    print(f"unit {h['object']} ({h['design'] or 'no design'}): surveys "
+          f"{h['first_survey']}..{h['last_survey']}, "
+          f"{h['status']}")
+    for o in h["observations"]:
+        print(f"  survey {o['survey']}: reef {o['result_id']} at {o['x']:.2f}, {o['y']:.2f}; height "
+              f"{number(o['height'], '.2f')} m, least depth {number(o['least_depth'], '.2f')} m, tilt "
+              f"{number(o['top_tilt_deg'], '.1f')} deg, overturned {o['overturned'] or 'undecided'}")
+    for c in h["changes"]:
+        print(f"  {c['survey_before']} -> {c['survey_after']}: {c['status']}"
+              + (f" ({c['detected']})" if c["detected"] else "")
+              + f"; moved {number(c['displacement'], '.2f')} ± {number(c['displacement_lod95'], '.2f')} m, "
+                f"settled {number(c['settlement'], '.2f')} ± {number(c['settlement_lod95'], '.2f')} m")
     return 0
 
 

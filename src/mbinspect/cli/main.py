@@ -148,17 +148,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_IO
 
 
+#: A list of numbers whose first is negative (``-0.1,0,0.05``).
+_NUMBERS = re.compile(r"-\.?[0-9][0-9.eE+-]*,")
+
+
 def _join_dash_values(argv: list[str]) -> list[str]:
     """``--columns -,x,y,z`` as ``--columns=-,x,y,z``: argparse takes a value starting with
-    '-' for a flag, and column maps and crops (negative coordinates) often start so."""
+    '-' for a flag, and column maps, crops and lists of numbers (``--shift -0.1,0,0.05``)
+    often start so."""
     out: list[str] = []
     skip = False
     for k, a in enumerate(argv):
         if skip:
             skip = False
             continue
-        if a in ("--columns", "--crop") and k + 1 < len(argv) and argv[k + 1].startswith("-") \
-                and argv[k + 1] not in ("-h", "--help"):
+        nxt = argv[k + 1] if k + 1 < len(argv) else ""
+        if (a in ("--columns", "--crop") and nxt.startswith("-") and nxt not in ("-h", "--help")) \
+                or (a.startswith("--") and "=" not in a and _NUMBERS.match(nxt)):
             out.append(f"{a}={argv[k + 1]}")
             skip = True
         else:
