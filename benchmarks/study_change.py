@@ -234,7 +234,11 @@ def _real(placements: int) -> None:
                 tally["why: " + str(exc)[:60]] += 1
                 continue
             g = res.registration
-            regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dz))
+            if not math.isfinite(g.sigma_dz):
+                tally["registration: " + g.note[:50]] += 1
+                continue
+            regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dz,
+                         g.sigma_dy))
             truth_b = ib.truth["reefs"]
             for i in range(len(square)):
                 what = REAL_CHANGES.get(i, ("none", {}))[0]
@@ -256,20 +260,25 @@ def _real(placements: int) -> None:
                     tally[f"{what}: n"] += 1
                 if what == "move" and o.status == "changed":
                     errs.append(o.values["displacement"] - 0.8)
-        r = np.array(regs).reshape(-1, 5)
-        rows.append([name[:34], f"{len(regs)}/{placements}",
+        r = np.array(regs).reshape(-1, 6)
+        rows.append([name[:34], f"{len(regs)}/{placements} ({len(cloud.xyz) // 1000} k)",
                      f"{tally['move: found']}/{tally['move: n']}",
                      f"{tally['settle: found']}/{tally['settle: n']}",
                      f"{tally['overturn: found']}/{tally['overturn: n']}",
                      f"{tally['unchanged called changed']}/{tally['unchanged']}",
                      f"{1000 * math.sqrt(np.mean(r[:, 0] ** 2 + r[:, 1] ** 2)):.0f}" if len(r) else "-",
                      f"{1000 * math.sqrt(np.mean(r[:, 2] ** 2)):.0f}" if len(r) else "-",
+                     f"{100 * np.mean((abs(r[:, 0]) <= 2 * r[:, 3]) & (abs(r[:, 1]) <= 2 * r[:, 5])):.0f} %"
+                     if len(r) else "-",
                      f"{1000 * np.median(r[:, 3]):.0f}" if len(r) else "-",
                      f"{1000 * np.median(r[:, 4]):.0f}" if len(r) else "-",
-                     f"{1000 * math.sqrt(np.mean(np.square(errs))):.0f}" if errs else "-"])
+                     f"{1000 * math.sqrt(np.mean(np.square(errs))):.0f}" if errs else "-",
+                     "; ".join(f"{k} ×{v}" for k, v in tally.items()
+                               if k.startswith(("why", "registration", "not found")))])
     print(table(["file (pings split even/odd)", "placements run", "moved 0.8 m found", "settled 0.25 m",
                  "overturned", "unchanged called changed", "plan reg err RMS mm", "dz err RMS mm",
-                 "median σ dx mm", "median σ dz mm", "displacement err RMS mm"], rows))
+                 "dx, dy within 2σ", "median σ dx mm", "median σ dz mm", "displacement err RMS mm",
+                 "left out"], rows))
 
 
 def main() -> None:

@@ -70,6 +70,10 @@ class LeastDepth:
         The strictest S-44 order its TVU and THU meet at its depth.
     note : str
         Why it is wanting, or "".
+    tvu95_relative : float
+        Its 95 % vertical uncertainty against its own survey's seabed: the TVU without the
+        level of its line, which a comparison of two registered surveys measures (NaN: as
+        ``tvu95``).
     """
 
     z: float
@@ -81,6 +85,7 @@ class LeastDepth:
     fliers: int = 0
     order: str | None = None
     note: str = ""
+    tvu95_relative: float = math.nan
 
     @property
     def depth(self) -> float:
@@ -96,7 +101,8 @@ class LeastDepth:
         out: dict[str, Any] = {
             "least_depth": self.depth, "least_depth_tvu95": self.tvu95, "least_depth_x": self.x,
             "least_depth_y": self.y, "least_depth_thu95": self.thu95, "least_depth_order": self.order,
-            "least_depth_n": self.n, "least_depth_fliers": self.fliers, "least_depth_note": self.note}
+            "least_depth_n": self.n, "least_depth_fliers": self.fliers, "least_depth_note": self.note,
+            "least_depth_tvu95_relative": self.tvu95 if math.isfinite(self.tvu95) else self.tvu95_relative}
         if min_clearance is not None:
             out["least_depth_clearance"] = clearance(self.depth, self.tvu95, min_clearance) \
                 if math.isfinite(self.z) else "undecided"
@@ -228,17 +234,20 @@ def _estimate(s: np.ndarray, sigma: float, level_sigma: float, spacing: float, p
     z = float(np.median(s[:, 2]))
     spread = float(s[:, 2].std())
     # the median's noise, where the true top lies within their spread, the line's level
-    var_z = 1.57 * sigma**2 / len(s) + (spread / 2) ** 2 + level_sigma**2
+    var_rel = 1.57 * sigma**2 / len(s) + (spread / 2) ** 2
+    var_z = var_rel + level_sigma**2
     tvu = 1.96 * math.sqrt(var_z) if math.isfinite(var_z) else math.nan
     # the least depth may lie anywhere between soundings: a sampling of ``spacing``
     thu = 1.96 * math.sqrt(spacing**2 / 6 + position_sigma**2 + float(s[:, :2].var(axis=0).sum()) / len(s))
     x, y = (float(v) for v in s[:, :2].mean(axis=0))
     note = "" if math.isfinite(tvu) else "the height of its line against the others is unknown (one line)"
-    return LeastDepth(z, x, y, tvu, thu, len(s), fliers, s44_order(-z, tvu, thu), note)
+    return LeastDepth(z, x, y, tvu, thu, len(s), fliers, s44_order(-z, tvu, thu), note,
+                      1.96 * math.sqrt(var_rel) if math.isfinite(var_rel) else math.nan)
 
 
 def least_of(d: dict[str, Any]) -> dict[str, Any]:
     """The ``least_depth*`` keys of a JSON row (NaN where JSON holds null)."""
-    return {k: (math.nan if v is None and k in ("least_depth", "least_depth_tvu95", "least_depth_thu95",
-                                                "least_depth_x", "least_depth_y") else v)
+    numbers = ("least_depth", "least_depth_tvu95", "least_depth_thu95", "least_depth_x", "least_depth_y",
+               "least_depth_tvu95_relative")
+    return {k: (math.nan if v is None and k in numbers else v)
             for k, v in d.items() if k.startswith("least_depth")}

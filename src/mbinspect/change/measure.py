@@ -84,7 +84,9 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str]) -> dict[str, 
     """Settlement of the top (least depths, registered) and the exposed heights."""
     lb, la = b.least or {}, a.least or {}
     db, da = _num(lb.get("least_depth")), _num(la.get("least_depth"))
-    tb, ta = _num(lb.get("least_depth_tvu95")), _num(la.get("least_depth_tvu95"))
+    # each survey's own line levels are what the vertical registration measures: a survey of
+    # one line (no level of its own) is compared by its least depths' noise
+    tb, ta = (_num(d.get("least_depth_tvu95_relative", d.get("least_depth_tvu95"))) for d in (lb, la))
     out: dict[str, Any] = {"height_before": b.height, "height_after": a.height}
     sz = reg.sigma_dz if math.isfinite(reg.sigma_dz) else math.nan
     if math.isfinite(db) and math.isfinite(da):
