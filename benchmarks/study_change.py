@@ -18,6 +18,7 @@ share of measures within their 95 % level of detection.
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections import Counter
 from pathlib import Path
@@ -231,7 +232,7 @@ def _real(placements: int) -> None:
                 res = compare_surveys(rb, ra, ib.xyz, a_xyz)
             except MBInspectError as exc:
                 tally["stopped"] += 1
-                tally["why: " + str(exc)[:60]] += 1
+                tally["why: " + re.sub(r"\([0-9., ]+\)", "(…)", str(exc))[:60]] += 1
                 continue
             g = res.registration
             if not math.isfinite(g.sigma_dz):

@@ -163,6 +163,12 @@ def register(before: Grid, after: Grid, usable: np.ndarray, *, rotation: bool = 
     if fit is None:
         return IDENTITY
     p, cov, rms, used, blocks = fit
+    jack = _jackknife(tb, px, py, ta.z[ok], c, bool(cov[3, 3] > 0), iterations)
+    if jack is not None:  # each parameter's larger variance, the sandwich's correlations
+        sd, wide = np.sqrt(np.maximum(np.diag(cov), 0.0)), np.sqrt(np.maximum(np.diag(jack), np.diag(cov)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = np.where(np.outer(sd, sd) > 0, cov / np.outer(sd, sd), 0.0)
+        cov = corr * np.outer(wide, wide)
     # the vertical offset from the whole seabed, carried by the plan fit
     vert = _vertical(before, px, py, a, c, p)
     if vert is None:
@@ -255,6 +261,31 @@ def _solve(before: Grid, px: np.ndarray, py: np.ndarray, a: np.ndarray, c: tuple
     cov[:k, :k] = cov_k
     rms = 1.4826 * float(np.median(np.abs(e[use] - np.median(e[use]))))
     return p, cov, rms, int(use.sum()), blocks
+
+
+def _jackknife(before: Grid, px: np.ndarray, py: np.ndarray, a: np.ndarray, c: tuple[float, float],
+               rotation: bool, iterations: int) -> np.ndarray | None:
+    """The plan's covariance from the fit again without each block of the seabed in turn (a
+    delete-one jackknife, widened by Student's quantile): where the seabed's relief is faint
+    beside its noise, the gradients the fit leans on are noisy too, and the sandwich alone
+    is too sure of itself."""
+    span = max(float(np.ptp(px)), float(np.ptp(py)), 1.0)
+    side = max(span / 5.0, 10.0)
+    _, inv = np.unique(np.floor((px - px.min()) / side) * 1e6 + np.floor((py - py.min()) / side),
+                       return_inverse=True)
+    g = int(inv.max()) + 1
+    if g < MIN_BLOCKS:
+        return None
+    est = []
+    for k in range(g):
+        m = inv != k
+        fit = _solve(before, px[m], py[m], a[m], c, rotation, iterations)
+        if fit is None:
+            return None
+        est.append(fit[0])
+    d = np.asarray(est) - np.mean(est, axis=0)
+    widen = (float(student_t.ppf(0.975, g - 1)) / 1.959963984540054) ** 2
+    return d.T @ d * (g - 1) / g * widen
 
 
 def _cluster_cov(jac: np.ndarray, e: np.ndarray, x: np.ndarray, y: np.ndarray
