@@ -1,6 +1,7 @@
 """Stage list of :func:`compare_surveys`: grid both surveys' soundings, register them on the
 seabed away from the objects, carry the after survey's objects into the before survey's
-frame, match them one to one, difference the seabed, and measure each object's change."""
+frame, match them one to one, difference the seabed, and measure each object's change
+(reefs: :mod:`.measure`; piles: :mod:`.piles`)."""
 
 from __future__ import annotations
 
@@ -12,28 +13,34 @@ import numpy as np
 
 from ..errors import InputError
 from ..grid import bounds
+from ..piles.results import PileResult
 from ..reefs.results import Reef, ReefResult
 from ..version import __version__
 from .grid import Grid, median_grid
 from .match import match_objects
 from .measure import reef_change, symmetry_turns
 from .options import ChangeOptions
+from .piles import exposed_height, pile_change, pile_outline
 from .register import IDENTITY, Registration, register
 from .results import ChangeResult, ObjectChange
 
 __all__ = ["compare_surveys"]
 
 
-def compare_surveys(before: ReefResult, after: ReefResult, before_points: np.ndarray,
+Result = ReefResult | PileResult
+
+
+def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
                     after_points: np.ndarray, *, options: ChangeOptions | None = None,
                     progress: Callable[[float], None] | None = None,
                     **given: Any) -> ChangeResult:
-    """Two surveys of one reef field compared, object by object.
+    """Two surveys of one reef field, or of one jacket's piles, compared object by object.
 
     Parameters
     ----------
-    before, after : ReefResult
-        Each survey's reefs (:func:`~mbinspect.reefs.extract_reefs`, or read back).
+    before, after : ReefResult or PileResult
+        Each survey's reefs (:func:`~mbinspect.reefs.extract_reefs`) or piles
+        (:func:`~mbinspect.piles.locate_piles`), or either read back; both of one kind.
     before_points, after_points : ndarray, shape (N, 3)
         Each survey's soundings, on the vertical reference its result records.
     options : ChangeOptions, optional
@@ -53,6 +60,10 @@ def compare_surveys(before: ReefResult, after: ReefResult, before_points: np.nda
     """
     opt = options or ChangeOptions(**given)
     report = progress or (lambda f: None)
+    kind = "piles" if isinstance(before, PileResult) else "reefs"
+    if isinstance(after, PileResult) != (kind == "piles"):
+        raise InputError(f"the before survey's result holds {kind}, the after survey's "
+                         f"{'piles' if kind == 'reefs' else 'reefs'}; expected two of one kind")
     warnings = _compatible(before, after)
     b_pts, a_pts = np.asarray(before_points, np.float64), np.asarray(after_points, np.float64)
     lo_b, hi_b = bounds(b_pts)
@@ -63,27 +74,30 @@ def compare_surveys(before: ReefResult, after: ReefResult, before_points: np.nda
                          f"after {_span(lo_a, hi_a)}")
     gb, ga = _grids(b_pts, a_pts, lo, hi, opt.cell)
     report(0.3)
-    reefs, others = list(before.reefs) + list(after.reefs), before.others + after.others
-    usable = _away(gb, reefs, others, opt.exclude_buffer)
+    spots = _spots(before) + _spots(after)
+    usable = _away(gb, spots, opt.exclude_buffer)
     reg = register(gb, ga, usable, rotation=opt.rotation)
     if reg is IDENTITY:
         warnings.append(reg.note)
     report(0.6)
     db, da = _grids(b_pts, a_pts, lo, hi, opt.scour_cell, min_count=1)
-    diff, diff_sigma = _difference(db, da, reg, _away(db, reefs, others, opt.exclude_buffer))
+    diff, diff_sigma = _difference(db, da, reg, _away(db, spots, opt.exclude_buffer))
     diff = _without_objects(diff, before, after, reg)
-    objects = _objects(before, after, reg, opt, diff, diff_sigma)
+    if isinstance(before, PileResult) and isinstance(after, PileResult):
+        objects = _piles(before, after, reg, opt, diff, diff_sigma, (db, da))
+    elif isinstance(before, ReefResult) and isinstance(after, ReefResult):
+        objects = _objects(before, after, reg, opt, diff, diff_sigma)
     report(1.0)
     params = {**opt.to_dict(), "before": _record(before), "after": _record(after),
               "difference_sigma": diff_sigma, "software": f"mbinspect {__version__}"}
-    return ChangeResult("reefs", reg, tuple(objects), params, tuple(warnings), diff)
+    return ChangeResult(kind, reg, tuple(objects), params, tuple(warnings), diff)
 
 
 def _span(lo: np.ndarray, hi: np.ndarray) -> str:
     return f"x {lo[0]:.1f}..{hi[0]:.1f}, y {lo[1]:.1f}..{hi[1]:.1f}"
 
 
-def _compatible(before: ReefResult, after: ReefResult) -> list[str]:
+def _compatible(before: Result, after: Result) -> list[str]:
     """Refuse results in different CRSs; warn of different vertical references."""
     crs = [r.parameters.get("input", {}).get("crs") for r in (before, after)]
     if crs[0] and crs[1] and crs[0] != crs[1]:
@@ -99,9 +113,10 @@ def _compatible(before: ReefResult, after: ReefResult) -> list[str]:
     return []
 
 
-def _record(r: ReefResult) -> dict[str, Any]:
+def _record(r: Result) -> dict[str, Any]:
     """What the comparison read of one result."""
-    return {"source": r.parameters.get("input", {}).get("source"), "reefs": len(r.reefs),
+    n = {"piles": len(r.piles)} if isinstance(r, PileResult) else {"reefs": len(r.reefs)}
+    return {"source": r.parameters.get("input", {}).get("source"), **n,
             "vertical_reference": r.parameters.get("vertical_reference")}
 
 
@@ -114,14 +129,19 @@ def _grids(b: np.ndarray, a: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: f
             median_grid(a, x0, y0, shape, cell, min_count=min_count))
 
 
-def _away(g: Grid, reefs: list[Reef], others: tuple[Any, ...], buffer: float) -> np.ndarray:
-    """The cells farther than ``buffer`` from every object (its outline's reach from its
-    centre, or its size)."""
+def _spots(r: Result) -> list[tuple[float, float, float]]:
+    """Every object of a result as (x, y, its reach from its centre)."""
+    if isinstance(r, PileResult):
+        return [(p.x, p.y, p.radius) for p in r.piles]
+    return [(f.x, f.y, _reach(f)) for f in r.reefs] + [(o.x, o.y, math.sqrt(max(o.area, 0.0) / math.pi))
+                                                      for o in r.others]
+
+
+def _away(g: Grid, spots: list[tuple[float, float, float]], buffer: float) -> np.ndarray:
+    """The cells farther than ``buffer`` from every object (its reach from its centre)."""
     x, y = g.centres()
     ok = np.ones(g.z.shape, bool)
-    objs = [(r.x, r.y, _reach(r)) for r in reefs] + [(o.x, o.y, math.sqrt(max(o.area, 0.0) / math.pi))
-                                                    for o in others]
-    for ox, oy, reach in objs:
+    for ox, oy, reach in spots:
         r = reach + buffer
         i0, i1 = int((ox - r - g.x0) / g.cell), int((ox + r - g.x0) / g.cell) + 1
         j0, j1 = int((oy - r - g.y0) / g.cell), int((oy + r - g.y0) / g.cell) + 1
@@ -153,7 +173,18 @@ def _difference(b: Grid, a: Grid, reg: Registration, usable: np.ndarray) -> tupl
     return Grid(b.x0, b.y0, b.cell, d, b.n), sigma
 
 
-def _without_objects(diff: Grid, before: ReefResult, after: ReefResult, reg: Registration) -> Grid:
+def _outlines(r: Result) -> list[np.ndarray]:
+    """Every object's outline (a pile's circle; a reef's footprint), the others' as circles of
+    their area."""
+    if isinstance(r, PileResult):
+        return [pile_outline(p) for p in r.piles]
+    t = np.linspace(0, 2 * math.pi, 16, endpoint=False)
+    return [np.asarray(f.outline) for f in r.reefs if len(f.outline) >= 3] + [
+        np.column_stack([o.x + math.sqrt(max(o.area, 0.01) / math.pi) * np.sin(t),
+                         o.y + math.sqrt(max(o.area, 0.01) / math.pi) * np.cos(t)]) for o in r.others]
+
+
+def _without_objects(diff: Grid, before: Result, after: Result, reg: Registration) -> Grid:
     """The difference map with every object of either survey left out (its footprint grown
     by :data:`mbinspect.scour.FOOT_MARGIN`; the after survey's carried into the before
     frame): what is left is the seabed."""
@@ -162,23 +193,13 @@ def _without_objects(diff: Grid, before: ReefResult, after: ReefResult, reg: Reg
 
     x, y = diff.centres()
     z = diff.z.copy()
-    polys = [np.asarray(r.outline) for r in before.reefs if len(r.outline) >= 3]
-    for r in after.reefs:
-        if len(r.outline) >= 3:
-            o = np.asarray(r.outline)
-            polys.append(np.column_stack(reg.to_before(o[:, 0], o[:, 1])))
+    polys = _outlines(before) + [np.column_stack(reg.to_before(o[:, 0], o[:, 1])) for o in _outlines(after)]
     for poly in polys:
         lo, hi = poly.min(axis=0) - FOOT_MARGIN - diff.cell, poly.max(axis=0) + FOOT_MARGIN + diff.cell
         box = (x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])
         if box.any():
             inside = points_in_polygon(np.column_stack([x[box], y[box]]), grown(poly))
             z.ravel()[np.flatnonzero(box.ravel())[inside]] = np.nan
-    spots = [(o.x, o.y, o.area) for o in before.others]
-    for other in after.others:
-        cx, cy = reg.to_before(np.array([other.x]), np.array([other.y]))
-        spots.append((float(cx[0]), float(cy[0]), other.area))
-    for ox, oy, area in spots:
-        z[np.hypot(x - ox, y - oy) <= math.sqrt(max(area, 0.0) / math.pi) + FOOT_MARGIN] = np.nan
     return Grid(diff.x0, diff.y0, diff.cell, z, diff.n)
 
 
@@ -209,4 +230,28 @@ def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: Chan
     out += [ObjectChange(None, ra.id, "new", x_after=float(ax[j]), y_after=float(ay[j]),
                          values={"height_after": ra.height, "design": ra.design})
             for j, ra in enumerate(after.reefs) if j not in matched]
+    return out
+
+
+def _piles(before: PileResult, after: PileResult, reg: Registration, opt: ChangeOptions, diff: Grid,
+           diff_sigma: float, seabeds: tuple[Grid, Grid]) -> list[ObjectChange]:
+    """Every pile of either survey with its change, before ids first."""
+    bxy = np.array([[p.x, p.y] for p in before.piles]).reshape(-1, 2)
+    ax, ay = reg.to_before(np.array([p.x for p in after.piles]), np.array([p.y for p in after.piles]))
+    pairs = dict(match_objects(bxy, np.column_stack([ax, ay]).reshape(-1, 2), max_move=opt.max_move))
+    out = []
+    for i, pb in enumerate(before.piles):
+        j = pairs.get(i)
+        if j is None:
+            out.append(ObjectChange(pb.id, None, "removed", pb.x, pb.y))
+            continue
+        pa = after.piles[j]
+        heights = (exposed_height(pb, seabeds[0]), exposed_height(pa, seabeds[1]))
+        values, detected, notes = pile_change(pb, pa, (float(ax[j]), float(ay[j])), reg, opt, diff=diff,
+                                              diff_sigma=diff_sigma, heights=heights)
+        out.append(ObjectChange(pb.id, pa.id, "changed" if detected else "unchanged", pb.x, pb.y,
+                                float(ax[j]), float(ay[j]), values, detected, notes))
+    matched = set(pairs.values())
+    out += [ObjectChange(None, pa.id, "new", x_after=float(ax[j]), y_after=float(ay[j]))
+            for j, pa in enumerate(after.piles) if j not in matched]
     return out

@@ -31,6 +31,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..outputs import atomic_path
+from ..piles.results import PileResult
 from ..reefs.results import ReefResult
 from .results import MEASURES, ChangeResult
 
@@ -64,7 +65,7 @@ def _cols(text: str, kind: str = "DOUBLE") -> tuple[tuple[str, str], ...]:
 #: Each layer: (geometry type or None for attributes, its columns with their SQL types).
 LAYERS: dict[str, tuple[str | None, tuple[tuple[str, str], ...]]] = {
     "surveys": (None, _cols("survey:INTEGER_UNIQUE_NOT_NULL result:TEXT result_sha256:TEXT sources:TEXT "
-                            "added:TEXT reefs:INTEGER vertical_reference:TEXT dx dy dz")),
+                            "added:TEXT kind:TEXT objects:INTEGER vertical_reference:TEXT dx dy dz")),
     "objects": ("POINT", _cols("object:INTEGER_UNIQUE_NOT_NULL design:TEXT first_survey:INTEGER "
                                "last_survey:INTEGER status:TEXT x y")),
     "observations": ("POINT", _cols("object:INTEGER_NOT_NULL survey:INTEGER_NOT_NULL result_id:INTEGER "
@@ -187,10 +188,14 @@ def _sha(path: Path) -> str:
 
 def _result_file(path: str | Path) -> Path:
     p = Path(path)
-    return p / "reefs.json" if p.is_dir() else p
+    if p.is_dir():
+        return p / "piles.json" if (p / "piles.json").is_file() and not (p / "reefs.json").is_file() \
+            else p / "reefs.json"
+    return p
 
 
-def register_change(path: str | Path, change: ChangeResult, before: ReefResult, after: ReefResult, *,
+def register_change(path: str | Path, change: ChangeResult, before: ReefResult | PileResult,
+                    after: ReefResult | PileResult, *,
                     before_path: str | Path, after_path: str | Path, crs: str | None) -> dict[str, int]:
     """Add a comparison to the register at ``path``: the before survey (when the register is
     new), the after survey, each unit's observation, and the changes.
@@ -214,10 +219,14 @@ def register_change(path: str | Path, change: ChangeResult, before: ReefResult, 
                            "ORDER BY survey DESC LIMIT 1").fetchone()
         if last is None:
             sb = _add_survey(con, before, bfile, None)
-            ids = {r.id: _new_object(con, srs, r, sb) for r in before.reefs}
-            for r in before.reefs:
+            ids = {r.id: _new_object(con, srs, r, sb) for r in _items(before)}
+            for r in _items(before):
                 _observe(con, srs, ids[r.id], sb, r)
         else:
+            held = con.execute("SELECT kind FROM surveys WHERE survey = ?", (last[0],)).fetchone()[0]
+            if held != change.kind:
+                raise InputError(f"{p}: a register of {held}; expected results of {held} to add (these "
+                                 f"hold {change.kind})")
             if last[2] != _sha(bfile):
                 raise InputError(f"{p}: its last survey is {last[1]}; expected the before survey {bfile} "
                                  "to be it (surveys are added in order)")
@@ -225,7 +234,7 @@ def register_change(path: str | Path, change: ChangeResult, before: ReefResult, 
             ids = {int(r[1]): int(r[0]) for r in con.execute(
                 "SELECT object, result_id FROM observations WHERE survey = ?", (sb,))}
         sa = _add_survey(con, after, afile, change)
-        by_after = {r.id: r for r in after.reefs}
+        by_after = {r.id: r for r in _items(after)}
         for o in change.objects:
             if o.status == "new" and o.id_after is not None:
                 obj = _new_object(con, srs, by_after[o.id_after], sa)
@@ -246,38 +255,54 @@ def register_change(path: str | Path, change: ChangeResult, before: ReefResult, 
     return {"survey_before": sb, "survey_after": sa, "objects": n}
 
 
-def _add_survey(con: sqlite3.Connection, result: ReefResult, file: Path, change: ChangeResult | None) -> int:
+def _add_survey(con: sqlite3.Connection, result: ReefResult | PileResult, file: Path,
+                change: ChangeResult | None) -> int:
     n = int(con.execute("SELECT coalesce(max(survey), 0) FROM surveys").fetchone()[0]) + 1
     inputs = result.parameters.get("input") or {}
     records = inputs.get("files") or [inputs]
     sources = [r.get("file") for r in records if isinstance(r, dict) and r.get("file")]
     ref = (result.parameters.get("vertical_reference") or {}).get("text") or "as the files give them"
     reg = change.registration if change is not None else None
-    con.execute("INSERT INTO surveys (survey, result, result_sha256, sources, added, reefs, "
-                "vertical_reference, dx, dy, dz) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+    kind = "piles" if isinstance(result, PileResult) else "reefs"
+    con.execute("INSERT INTO surveys (survey, result, result_sha256, sources, added, kind, objects, "
+                "vertical_reference, dx, dy, dz) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (n, str(file), _sha(file), json.dumps(sources),
-                 dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-                 len(result.reefs), ref, *(_num(getattr(reg, k, None)) for k in ("dx", "dy", "dz"))))
+                 dt.datetime.now(dt.UTC).isoformat(timespec="seconds"), kind,
+                 len(_items(result)), ref, *(_num(getattr(reg, k, None)) for k in ("dx", "dy", "dz"))))
     return n
+
+
+def _items(result: ReefResult | PileResult) -> tuple[Any, ...]:
+    """A result's objects: its reefs or its piles."""
+    return tuple(result.piles) if isinstance(result, PileResult) else tuple(result.reefs)
 
 
 def _new_object(con: sqlite3.Connection, srs: int, r: Any, survey: int) -> int:
     obj = int(con.execute("SELECT coalesce(max(object), 0) FROM objects").fetchone()[0]) + 1
     con.execute("INSERT INTO objects (geom, object, design, first_survey, last_survey, status, x, y) "
                 "VALUES (?, ?, ?, ?, ?, 'present', ?, ?)",
-                (point_blob(r.x, r.y, srs), obj, r.design or None, survey, survey, r.x, r.y))
+                (point_blob(r.x, r.y, srs), obj, _design(r), survey, survey, r.x, r.y))
     return obj
+
+
+def _design(r: Any) -> str | None:
+    """A reef's design, or 'pile' and its radius."""
+    return getattr(r, "design", None) or (f"pile r {r.radius:.2f} m" if hasattr(r, "radius") else None)
 
 
 def _observe(con: sqlite3.Connection, srs: int, obj: int, survey: int, r: Any) -> None:
     least = r.least or {}
+    top = r.z_top if hasattr(r, "z_top") else (r.top_z if r.top_z is not None else r.z)
+    tilt = getattr(r, "top_tilt_deg", getattr(r, "tilt_deg", None))
+    overturned = getattr(r, "overturned", None)
     con.execute("INSERT INTO observations (geom, object, survey, result_id, x, y, z_top, height, "
                 "least_depth, least_depth_tvu95, design, design_bearing_deg, top_tilt_deg, overturned) "
                 "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (point_blob(r.x, r.y, srs), obj, survey, r.id, r.x, r.y, _num(r.z_top), _num(r.height),
-                 _num(least.get("least_depth")), _num(least.get("least_depth_tvu95")), r.design or None,
-                 _num(r.design_bearing_deg), _num(r.top_tilt_deg),
-                 None if r.overturned is None else ("yes" if r.overturned else "no")))
+                (point_blob(r.x, r.y, srs), obj, survey, r.id, r.x, r.y, _num(top),
+                 _num(getattr(r, "height", None)),
+                 _num(least.get("least_depth")), _num(least.get("least_depth_tvu95")), _design(r),
+                 _num(getattr(r, "design_bearing_deg", None)), _num(tilt),
+                 None if overturned is None else ("yes" if overturned else "no")))
 
 
 def _change_row(con: sqlite3.Connection, srs: int, obj: int, sb: int, sa: int, o: Any) -> None:
@@ -315,7 +340,8 @@ def history(path: str | Path, obj: int) -> dict[str, Any]:
     changes = _read(path, "SELECT survey_before, survey_after, status, detected, displacement, "
                           "displacement_lod95, settlement, settlement_lod95, scour_depth, scour_depth_lod95 "
                           "FROM changes WHERE object = ? ORDER BY survey_after", (obj,))
-    return {**dict(zip(keys, rows[0], strict=True)),
+    kind = _read(path, "SELECT kind FROM surveys ORDER BY survey LIMIT 1")
+    return {**dict(zip(keys, rows[0], strict=True)), "kind": kind[0][0] if kind else "reefs",
             "observations": [dict(zip(("survey", "result_id", "x", "y", "z_top", "height", "least_depth",
                                        "top_tilt_deg", "overturned"), r, strict=True)) for r in seen],
             "changes": [dict(zip(("survey_before", "survey_after", "status", "detected", "displacement",

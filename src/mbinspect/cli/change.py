@@ -1,4 +1,5 @@
-"""``mbinspect change``: two surveys of one reef field compared, unit by unit."""
+"""``mbinspect change``: two surveys of one reef field, or of one jacket, compared object by
+object."""
 
 from __future__ import annotations
 
@@ -16,25 +17,29 @@ def add_parser(sub: Any) -> None:
     from ..change import ChangeOptions
     from .flags import add_flags
 
-    p = subcommand(sub, "change", "compare two surveys of one reef field, unit by unit",
+    p = subcommand(sub, "change", "compare two surveys of one reef field or jacket, object by object",
              "Register the AFTER survey on the BEFORE survey's seabed away from the objects (vertical "
-             "offset, plan shift, small rotation, each with its 1-sigma), match the reefs one to one, "
-             "and give each its displacement, turn, settlement, height, tilt, how it rests and the "
-             "scour round it, every change with its 95 % level of detection (a change inside it is "
-             "'no detectable change'). BEFORE and AFTER are result folders (or reefs.json) written by "
-             "'mbinspect reefs'; their soundings are read again from the files the results record. "
-             "Writes change.json, change.csv, change.geojson, difference.png and report.html.",
+             "offset, plan shift, small rotation, each with its 1-sigma), match the objects one to one, "
+             "and give each its change: a reef's displacement, turn, settlement, height, tilt, how it "
+             "rests and the scour round it; a pile's top displacement, settlement, lean and scour; every "
+             "change with its 95 % level of detection (a change inside it is 'no detectable change'). "
+             "BEFORE and AFTER are result folders (or reefs.json / piles.json) written by 'mbinspect "
+             "reefs' or 'mbinspect piles'; their soundings are read again from the files the results "
+             "record. Writes change.json, change.csv, change.geojson, difference.png and report.html.",
              "examples:\n  mbinspect reefs survey-2025/ --design cross2 --out reefs-2025\n"
              "  mbinspect reefs survey-2026/ --design cross2 --out reefs-2026\n"
              "  mbinspect change reefs-2025 reefs-2026 --out change-2025-2026 --register site.gpkg\n"
              "  mbinspect change site.gpkg --out change-last        (the register's last two surveys)\n"
-             "  mbinspect change site.gpkg --history 17             (one unit's life)")
-    p.add_argument("before", help="the earlier survey's result folder or reefs.json, or a site register "
-                   "(.gpkg)")
-    p.add_argument("after", nargs="?", help="the later survey's result folder or reefs.json")
+             "  mbinspect change site.gpkg --history 17             (one unit's life)\n"
+             "  mbinspect change piles-2025 piles-2026 --kind piles --out jacket-change")
+    p.add_argument("before", help="the earlier survey's result folder (reefs.json or piles.json), or a site "
+                   "register (.gpkg)")
+    p.add_argument("after", nargs="?", help="the later survey's result folder (reefs.json or piles.json)")
     p.add_argument("--register", metavar="SITE.gpkg",
                    help="add the comparison to a site register (a GeoPackage, created when new): the "
                         "surveys, every unit with its history, every change")
+    p.add_argument("--kind", choices=("reefs", "piles"),
+                   help="what the results must hold (default: what they hold, both the same)")
     p.add_argument("--history", type=int, metavar="ID",
                    help="with a register as BEFORE: print one unit's life (its id in the register)")
     g = p.add_argument_group("change (every option of mbinspect.change.ChangeOptions)")
@@ -68,8 +73,8 @@ def cmd_change(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     elif args.history is not None:
         raise ParameterError("history: goes with a register alone (mbinspect change SITE.gpkg --history ID)",
                              option="history")
-    before, b_pts, b_files = _side(args.before, "before", rep)
-    after, a_pts, a_files = _side(args.after, "after", rep)
+    before, b_pts, b_files = _side(args.before, "before", rep, args.kind)
+    after, a_pts, a_files = _side(args.after, "after", rep, args.kind)
     out = Path(args.out or "change-out")
     with output_dir(out, overwrite=args.overwrite, inputs=[*b_files, *a_files]) as tmp:
         result = compare_surveys(before, after, b_pts, a_pts, options=options,
@@ -102,10 +107,16 @@ def _history(path: str, obj: int) -> int:
     print(f"unit {h['object']} ({h['design'] or 'no design'}): surveys "
           f"{h['first_survey']}..{h['last_survey']}, "
           f"{h['status']}")
+    word = h["kind"][:-1]
     for o in h["observations"]:
-        print(f"  survey {o['survey']}: reef {o['result_id']} at {o['x']:.2f}, {o['y']:.2f}; height "
-              f"{number(o['height'], '.2f')} m, least depth {number(o['least_depth'], '.2f')} m, tilt "
-              f"{number(o['top_tilt_deg'], '.1f')} deg, overturned {o['overturned'] or 'undecided'}")
+        parts = [f"top {number(o['z_top'], '.3f')} m" if word == "pile" else
+                 f"height {number(o['height'], '.2f')} m",
+                 f"least depth {number(o['least_depth'], '.2f')} m",
+                 f"{'lean' if word == 'pile' else 'tilt'} {number(o['top_tilt_deg'], '.1f')} deg"]
+        if word == "reef":
+            parts.append(f"overturned {o['overturned'] or 'undecided'}")
+        print(f"  survey {o['survey']}: {word} {o['result_id']} at {o['x']:.2f}, {o['y']:.2f}; "
+              + ", ".join(parts))
     for c in h["changes"]:
         print(f"  {c['survey_before']} -> {c['survey_after']}: {c['status']}"
               + (f" ({c['detected']})" if c["detected"] else "")
@@ -131,12 +142,12 @@ def _print(result: Any) -> None:
                  for k in o.detected if k in words]
         if "overturned" in o.detected:
             parts.append("overturned" if o.values.get("overturned_after") else "upright again")
-        print(f"  reef {o.id_before} (after: {o.id_after}): " + ", ".join(parts))
+        print(f"  {result.kind[:-1]} {o.id_before} (after: {o.id_after}): " + ", ".join(parts))
     for w in result.warnings:
         print(f"mbinspect: warning: {w}")
 
 
-def _side(path: str, which: str, rep: Reporter) -> tuple[Any, Any, list[str]]:
+def _side(path: str, which: str, rep: Reporter, kind: str | None = None) -> tuple[Any, Any, list[str]]:
     """One side's result and its soundings, read again from the files it records."""
     from ..errors import InputError, ParameterError
     from ..io import sha256_of
@@ -145,15 +156,15 @@ def _side(path: str, which: str, rep: Reporter) -> tuple[Any, Any, list[str]]:
     from ..survey.inputs import READ_OPTIONS, read_survey
 
     result = read_result(path)
-    if isinstance(result, PileResult):
-        raise ParameterError(f"{which}: {path} holds piles; expected a reefs result (piles between surveys "
-                             "are not compared yet)", option=which)
+    held = "piles" if isinstance(result, PileResult) else "reefs"
+    if kind is not None and held != kind:
+        raise ParameterError(f"{which}: {path} holds {held}; expected {kind} (--kind)", option=which)
     params = result.parameters
     inputs = params.get("input") or {}
     records = inputs.get("files") or ([inputs] if "file" in inputs else [])
     if not records:
         raise InputError(f"{path}: the result records no input files (made from an array, or by an older "
-                         "mbinspect); expected a result written by 'mbinspect reefs'")
+                         "mbinspect); expected a result written by 'mbinspect reefs' or 'mbinspect piles'")
     base = Path(path) if Path(path).is_dir() else Path(path).parent
     files = []
     for rec in records:

@@ -87,7 +87,7 @@ def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: s
     from ..errors import InputError
     from ..outputs import output_dir, write_table
     from ..simulate import write_bundle
-    from ..simulate.resurvey import Change, random_changes, read_changes, resurvey
+    from ..simulate.resurvey import Change, random_changes, random_pile_changes, read_changes, resurvey
 
     if given:
         raise ParameterError(f"{sorted(given)[0]}: the scene and sonar are the earlier simulation's under "
@@ -107,8 +107,12 @@ def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: s
                          f"'mbinspect simulate {args.preset}' wrote")
     if truth.get("per_line") or truth.get("files"):
         raise InputError(f"{path}: a simulation of one file per line; expected one simulated as one file")
-    changes = (random_changes(truth, seed=args.seed) if (args.changes or "random") == "random"
-               else read_changes(args.changes))
+    if (args.changes or "random") != "random":
+        changes = read_changes(args.changes)
+    elif truth.get("reefs"):
+        changes = random_changes(truth, seed=args.seed)
+    else:
+        changes = random_pile_changes(truth, seed=args.seed)
     with output_dir(out, overwrite=args.overwrite, inputs=[str(path)]) as tmp:
         sim = resurvey(truth, changes, seed=args.seed, shift=args.shift or (0.0, 0.0, 0.0),
                        line_shift=args.line_shift, progress=rep.progress("ray casting"))
@@ -120,7 +124,8 @@ def _resurvey(args: argparse.Namespace, given: dict[str, Any], out: Path, ext: s
         write_table(rows, tmp / "changes.csv", [f.name for f in dataclasses.fields(Change)])
     objs = sim.truth["change"]["objects"]
     n = {s: sum(o["status"] == s for o in objs) for s in ("changed", "removed", "new")}
-    rep.info(f"{args.preset} surveyed again: {len(sim.cloud):,} soundings, {n['changed']} reefs changed, "
+    what = "reefs" if truth.get("reefs") else "piles"
+    rep.info(f"{args.preset} surveyed again: {len(sim.cloud):,} soundings, {n['changed']} {what} changed, "
              f"{n['removed']} removed, {n['new']} new, written to {out / cloud_path.name} with truth.json "
              "(its 'change') and changes.csv")
     return 0

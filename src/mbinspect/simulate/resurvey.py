@@ -24,25 +24,27 @@ import numpy as np
 from ..design_solids import ORIENTATIONS
 from ..errors import InputError, ParameterError
 from ..io import PointCloud
+from .pile_changes import changed_piles, check_pile_change, true_pile_changes
 from .run import Simulation, _setup
 from .scene import Reef, Scene, reef_boxes
 from .sonar import Line, Survey
 from .survey import survey
 from .truth import reef_truth, scene_truth
 
-__all__ = ["Change", "read_changes", "random_changes", "resurvey", "scour_truth", "CHANGE_COLUMNS"]
+__all__ = ["Change", "read_changes", "random_changes", "random_pile_changes", "resurvey", "scour_truth",
+           "CHANGE_COLUMNS"]
 
 
 @dataclass(frozen=True)
 class Change:
-    """What happened to one reef between the surveys (local metres, degrees).
+    """What happened to one reef or pile between the surveys (local metres, degrees).
 
     ``status`` is ``changed`` (the fields say how), ``removed`` or ``new`` (then ``kind``,
     ``x``, ``y``, ``bearing_deg`` place it in the scene's projected coordinates).
     ``settlement`` lowers the unit (m, positive down); ``orientation``, ``tilt_deg`` and
     ``tilt_bearing_deg``, when given, are how it rests afterwards; a scour pit of
     ``scour_depth`` m and ``scour_radius`` m is dug around it (a cosine bell centred on
-    the unit).
+    the unit). A pile (:mod:`.pile_changes`) settles, leans and is scoured round only.
     """
 
     id: int
@@ -220,13 +222,17 @@ def resurvey(truth: Mapping[str, Any], changes: Sequence[Change], *, seed: int,
     setup = _setup(preset, before_seed, overrides)
     ox, oy = setup.scene.origin
     changes = [checked(c) for c in changes]
-    known = {r.id for r in setup.scene.reefs}
+    piles = bool(setup.scene.piles) and not setup.scene.reefs
+    known = set(range(1, len(setup.scene.piles) + 1)) if piles else {r.id for r in setup.scene.reefs}
     bad = [c.id for c in changes if c.status != "new" and c.id not in known]
     if bad:
-        raise ParameterError(f"id: {bad[0]} is no reef of the scene; expected one of "
-                             f"{min(known)}..{max(known)}",
-                             option="id")
-    scene = _changed_scene(setup.scene, changes, setup.opt)
+        what = "pile" if piles else "reef"
+        raise ParameterError(f"id: {bad[0]} is no {what} of the scene; expected one of "
+                             f"{min(known)}..{max(known)}", option="id")
+    if piles:
+        for c in changes:
+            check_pile_change(c)
+    scene = changed_piles(setup.scene, changes) if piles else _changed_scene(setup.scene, changes, setup.opt)
     spacing = float(getattr(setup.opt, "line_spacing", 20.0))
     plan = Survey(_other_lines(setup.plan.lines, spacing / 2 if line_shift is None else line_shift, spacing),
                   setup.sonar)
@@ -237,7 +243,8 @@ def resurvey(truth: Mapping[str, Any], changes: Sequence[Change], *, seed: int,
     after["sonar"] = {"name": setup.sonar_name, **after["sonar"]}
     after["resurvey_seed"] = seed
     after["change"] = {"registration": {"dx": shift[0], "dy": shift[1], "dz": shift[2]},
-                       "objects": _true_changes(setup.scene, scene, changes, (ox, oy))}
+                       "objects": (true_pile_changes if piles else _true_changes)(setup.scene, scene, changes,
+                                                                                   (ox, oy))}
     return Simulation(cloud, labels, ident, after, scene, plan)
 
 
@@ -339,17 +346,28 @@ def scour_truth(c: Change, reef: Mapping[str, Any], centre: tuple[float, float],
     """The scour a pit (centred at ``centre``) leaves round a reef, outside its footprint
     grown by :data:`mbinspect.scour.FOOT_MARGIN` (``reef``: its truth record), read as
     :func:`mbinspect.scour.scour_rings` reads a difference map: depth, radius and volume (m³)."""
-    if c.scour_depth <= 0:
-        return {"scour_depth": 0.0, "scour_radius": 0.0, "scour_volume": 0.0}
-    from ..geometry import points_in_polygon
-    from ..scour import grown, scour_rings
+    from ..scour import pit_scour
 
-    r = np.arange(cell / 2, c.scour_radius + cell, cell)
-    gx, gy = np.meshgrid(np.concatenate([-r[::-1], r]), np.concatenate([-r[::-1], r]))
-    dist = np.hypot(gx, gy).ravel()
-    bell = c.scour_depth * (1 + np.cos(np.pi * dist / c.scour_radius)) / 2
-    low = np.where(dist < c.scour_radius, bell, 0.0)
-    pts = np.column_stack([gx.ravel() + centre[0], gy.ravel() + centre[1]])
-    outside = ~points_in_polygon(pts, grown(np.asarray(reef["outline"])))
-    s = scour_rings(dist[outside], low[outside], cell * cell, reach=c.scour_radius + cell)
-    return {"scour_depth": s.depth, "scour_radius": s.radius, "scour_volume": s.volume}
+    return pit_scour(c.scour_depth, c.scour_radius, np.asarray(reef["outline"]), centre, cell)
+
+
+def random_pile_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5) -> tuple[Change, ...]:
+    """Changes for a study: about ``share`` of the piles changed, each one way drawn at
+    random (settled 2 to 10 cm, leaning 1 to 4° more, or scoured 0.3 to 1.0 m deep within
+    3 to 5 m), the rest left alone."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for p in truth["piles"]:
+        if rng.random() >= share:
+            continue
+        way = rng.choice(["settle", "tilt", "scour"])
+        pid = int(p["id"])
+        if way == "settle":
+            out.append(Change(pid, settlement=float(rng.uniform(0.02, 0.10))))
+        elif way == "tilt":
+            out.append(Change(pid, tilt_deg=float(p["tilt_deg"]) + float(rng.uniform(1, 4)),
+                              tilt_bearing_deg=float(rng.uniform(0, 360))))
+        else:
+            out.append(Change(pid, scour_depth=float(rng.uniform(0.3, 1.0)),
+                              scour_radius=float(rng.uniform(3, 5))))
+    return tuple(out)

@@ -1,0 +1,97 @@
+"""Piles between surveys (issue 29): a jacket surveyed again after one pile settled, one
+leaned and one was scoured round; each change found and within its level of detection of
+the truth, the unchanged pile not called changed; the command line on a tiled LAZ result
+and an ASCII one; a site register of piles refuses reefs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mbinspect.change import compare_surveys
+from mbinspect.cli import main
+from mbinspect.cloud import PointCloud
+from mbinspect.errors import ParameterError
+from mbinspect.io import write
+from mbinspect.piles import locate_piles
+from mbinspect.piles.design import read_design
+from mbinspect.simulate import simulate
+from mbinspect.simulate.resurvey import Change, resurvey
+
+SHIFT = (0.1, -0.05, 0.04)
+CHANGES = (Change(1, settlement=0.06), Change(2, tilt_deg=3.0, tilt_bearing_deg=90.0),
+           Change(3, scour_depth=0.6, scour_radius=4.0))
+
+
+@pytest.fixture(scope="module")
+def jacket(tmp_path_factory):
+    before = simulate("jacket", seed=1, ping_spacing=0.3)
+    after = resurvey(before.truth, CHANGES, seed=2, shift=SHIFT)
+    root = tmp_path_factory.mktemp("jacket")
+    (root / "design.csv").write_text("id,x,y\n" + "".join(f"{p['id']},{p['x']},{p['y']}\n"
+                                                          for p in before.truth["piles"]))
+    design = read_design(root / "design.csv")
+    pb = locate_piles(before.cloud, radius=0.75, count=4, design=design)
+    pa = locate_piles(after.cloud, radius=0.75, count=4, design=design)
+    res = compare_surveys(pb, pa, before.cloud.xyz, after.cloud.xyz)
+    return before, after, res, root
+
+
+def test_the_jacket_is_registered_within_its_bounds(jacket):
+    _, _, res, _ = jacket
+    g = res.registration
+    assert res.kind == "piles"
+    assert abs(g.dx - SHIFT[0]) <= 3 * g.sigma_dx and abs(g.dy - SHIFT[1]) <= 3 * g.sigma_dy
+    assert abs(g.dz - SHIFT[2]) < 0.03
+
+
+def test_each_pile_change_is_found_within_its_level_of_detection(jacket):
+    _, after, res, _ = jacket
+    truth = {t["id"]: t for t in after.truth["change"]["objects"]}
+    by_id = {o.id_before: o for o in res.objects}
+    assert sorted(by_id) == [1, 2, 3, 4] and all(o.status in ("changed", "unchanged") for o in res.objects)
+    assert "settlement" in by_id[1].detected
+    assert {"displacement", "tilt_change_deg"} <= set(by_id[2].detected)
+    assert "scour_depth" in by_id[3].detected
+    assert by_id[4].status == "unchanged"
+    for pid, o in by_id.items():
+        t = truth[pid]
+        for k in ("displacement", "settlement", "tilt_change_deg", "scour_depth"):
+            v, lod = o.values[k], o.values[k + "_lod95"]
+            assert abs(v - t[k]) <= max(lod, 0.03), (pid, k, v, t[k], lod)
+
+
+def test_a_pile_cannot_be_removed_or_moved_in_the_simulator(jacket):
+    before = jacket[0]
+    with pytest.raises(ParameterError, match="status: 'removed' for pile 1"):
+        resurvey(before.truth, [Change(1, status="removed")], seed=3)
+    with pytest.raises(ParameterError, match="dx: 1.0 for pile 2; expected 0"):
+        resurvey(before.truth, [Change(2, dx=1.0)], seed=3)
+    with pytest.raises(ParameterError, match="id: 9 is no pile of the scene; expected one of 1..4"):
+        resurvey(before.truth, [Change(9, settlement=0.1)], seed=3)
+
+
+def test_the_cli_compares_piles_from_a_tiled_laz_result_and_an_ascii_one(jacket, capsys):
+    before, after, _, root = jacket
+    write(PointCloud(before.cloud.xyz, before.cloud.fields, crs="EPSG:32617"), root / "before.laz")
+    np.savetxt(root / "after.xyz", after.cloud.xyz, fmt="%.3f")
+    common = ["--radius", "0.75", "--count", "4", "--design", str(root / "design.csv"), "--no-figures"]
+    assert main(["piles", str(root / "before.laz"), *common, "--out", str(root / "pb"), "--tiled",
+                 "--tile-size", "40", "--workers", "1"]) in (0, 3)
+    assert main(["piles", str(root / "after.xyz"), "--crs", "EPSG:32617", *common,
+                 "--out", str(root / "pa")]) in (0, 3)
+    capsys.readouterr()
+    assert main(["change", str(root / "pb"), str(root / "pa"), "--kind", "piles", "--register",
+                 str(root / "site.gpkg"), "--out", str(root / "ch")]) == 0
+    printed = capsys.readouterr().out
+    assert "pile 1 (after: 1): settled" in printed and "pile 3 (after: 3): scoured" in printed
+    d = json.loads((root / "ch" / "change.json").read_text())
+    assert d["change"] == "piles" and d["counts"]["changed"] >= 3
+    assert (root / "ch" / "difference.png").stat().st_size > 10_000
+    assert main(["change", str(root / "site.gpkg"), "--history", "2"]) == 0
+    assert "lean 3.0 deg" in capsys.readouterr().out
+    assert main(["change", str(root / "pb"), str(root / "pa"), "--kind", "reefs", "--out",
+                 str(root / "x")]) == 2
+    assert "holds piles; expected reefs (--kind)" in capsys.readouterr().err
