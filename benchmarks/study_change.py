@@ -42,8 +42,11 @@ CONFIGS: dict[str, tuple[dict, tuple[float, float]]] = {
 }
 
 #: What each kind of change must show to count as found.
-SHOWN = {"move": "displacement", "settle": "settlement", "tilt": "tilt_change_deg", "overturn": "overturned",
-         "scour": "scour_depth"}
+#: A true scour shallower than this (m) beyond its unit is "faint": not counted as one to find.
+FAINT = 0.1
+
+SHOWN = {"faint scour": "scour_depth", "move": "displacement", "settle": "settlement",
+         "tilt": "tilt_change_deg", "overturn": "overturned", "scour": "scour_depth"}
 
 
 def run_one(args: tuple[str, int]) -> list[dict]:
@@ -60,6 +63,10 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     ra = extract_reefs(after.cloud, design=designs, seed=seed)
     res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz)
     kinds = {c.id: _kind(c) for c in changes}
+    # a pit mostly under its unit leaves a faint scour beyond it: counted apart
+    true = {o["id"]: o for o in after.truth["change"]["objects"]}
+    kinds = {i: ("faint scour" if k == "scour" and true[i].get("scour_depth", 0) < FAINT else k)
+             for i, k in kinds.items()}
     out = _score(name, seed, res, before.truth, after.truth, shift, kinds)
     out["realised_dz"] = shift[2] + _datum(after, shift) - _datum(before, (0.0, 0.0, 0.0))
     return [out]
@@ -153,7 +160,7 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
                 v, lod = row["values"].get(m), row["values"].get(m + "_lod95")
                 tilt = t.get("tilt_after", 0) - t.get("tilt_before", 0)
                 tv = t.get(m, 0.0 if m != "tilt_change_deg" else tilt)
-                if m == "scour_depth" and k not in (None, "scour"):
+                if m == "scour_depth" and k not in (None, "scour", "faint scour"):
                     continue
                 if None not in (v, lod, tv) and math.isfinite(v) and math.isfinite(lod):
                     errs[m].append((v - tv, lod))
@@ -161,8 +168,8 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
                *(f"{100 * within[:, k].mean():.0f} %" for k in range(3)),
                *(f"{1000 * np.median(sig[:, k]):.0f}" for k in range(3))]
     det_row = [name, f"{right}", f"{wrong}", *(f"{found[k]}/{total[k]}" for k in
-                                                ("move", "settle", "tilt", "overturn", "scour", "remove",
-                                                 "new")),
+                                                ("move", "settle", "tilt", "overturn", "scour",
+                                                 "faint scour", "remove", "new")),
                f"{false_calls}/{unchanged}", ", ".join(f"{k} {v}" for k, v in why.most_common())]
     err_rows = []
     for m, e in errs.items():
@@ -306,7 +313,8 @@ def main() -> None:
                  "dy", "dz"], regs))
     print()
     print(table(["config", "matched right", "matched wrong", "moved found", "settled", "tilted", "overturned",
-                 "scoured", "removed", "new", "unchanged called changed", "by"], dets))
+                 "scoured", "faint scour (< 0.1 m)", "removed", "new", "unchanged called changed", "by"],
+                dets))
     print()
     print(table(["config", "measure", "n", "error RMS", "max", "within LoD95", "median LoD95"], errs))
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,7 +24,7 @@ from .grid import Grid
 from .options import ChangeOptions
 from .register import Registration
 
-__all__ = ["reef_change", "scour_of", "CORRELATED_AREA", "Z95"]
+__all__ = ["reef_change", "scour_of", "MapNoise", "CORRELATED_AREA", "Z95"]
 
 #: The two-sided normal 95 % quantile, and the 95 % radius of a round 2-D normal in sigmas.
 Z95, R95 = 1.959963984540054, 2.447746830680816
@@ -32,20 +33,30 @@ Z95, R95 = 1.959963984540054, 2.447746830680816
 SCOUR_KEYS = ("scour_depth", "scour_depth_lod95", "scour_radius", "scour_radius_lod95", "scour_volume",
               "scour_volume_lod95")
 
-#: The area (m²) over which a difference map's errors are shared (a beam's footprint, a
-#: ping's roll): cells within it are not independent.
+#: The least area (m²) over which a difference map's errors are shared (a beam's footprint,
+#: a ping's roll): cells within it are not independent.
 CORRELATED_AREA = 1.0
 
 
+@dataclass(frozen=True)
+class MapNoise:
+    """A difference map's noise: its cells' robust spread ``sigma`` (m) and the ``area``
+    (m²) over which their errors are shared, both measured on the seabed away from the
+    objects."""
+
+    sigma: float
+    area: float = CORRELATED_AREA
+
+
 def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarray, reg: Registration,
-                opt: ChangeOptions, *, turn: float, diff: Grid | None, diff_sigma: float
+                opt: ChangeOptions, *, turn: float, diff: Grid | None, noise: MapNoise
                 ) -> tuple[dict[str, Any], tuple[str, ...], tuple[str, ...]]:
     """A matched reef's change: the values (:data:`~mbinspect.change.results.MEASURES` with
     their ``_lod95``, and the levels read), the measures detected, and notes.
 
     ``a_xy`` and ``a_outline`` are the after reef's centre and outline carried into the
     before survey's frame; ``turn`` the design's symmetry (deg); ``diff`` the registered
-    difference map (after minus before) and ``diff_sigma`` its cells' noise (m).
+    difference map (after minus before) and ``noise`` its noise.
     """
     v: dict[str, Any] = {"design": b.design or a.design}
     notes: list[str] = []
@@ -66,7 +77,7 @@ def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarr
     v.update(_levels(b, a, reg, notes))
     v.update(_tilts(b, a, notes))
     if diff is not None:
-        v.update(scour_of(diff, diff_sigma, a_xy, [np.asarray(b.outline), a_outline], reach=opt.scour_reach))
+        v.update(scour_of(diff, noise, a_xy, [np.asarray(b.outline), a_outline], reach=opt.scour_reach))
     else:
         v.update(dict.fromkeys(SCOUR_KEYS, math.nan))
         notes.append("scour: no difference map")
@@ -114,12 +125,12 @@ def _tilts(b: Reef, a: Reef, notes: list[str]) -> dict[str, Any]:
     return out
 
 
-def scour_of(diff: Grid, sigma: float, centre: tuple[float, float], outlines: list[np.ndarray], *,
+def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines: list[np.ndarray], *,
              reach: float) -> dict[str, float]:
     """Scour round one unit from the registered difference map: the lowering against the
     seabed 2 m beyond ``reach``, read by :func:`mbinspect.scour.scour_rings`, each with its
-    level of detection from the map's noise ``sigma`` (cells within
-    :data:`CORRELATED_AREA` sharing it)."""
+    level of detection from the map's ``noise`` (cells within its area sharing their
+    errors)."""
     x, y = diff.centres()
     dist = np.hypot(x - centre[0], y - centre[1])
     near = dist <= reach + 2.0
@@ -134,8 +145,8 @@ def scour_of(diff: Grid, sigma: float, centre: tuple[float, float], outlines: li
     if ref_cells.sum() < 8:
         return nan
     level = float(np.median(diffs[ref_cells]))
-    area = diff.cell**2
-    share = max(area / CORRELATED_AREA, 1e-9)  # the independent share of a cell
+    area, sigma = diff.cell**2, noise.sigma
+    share = max(area / max(noise.area, area), 1e-9)  # the independent share of a cell
     s = scour_rings(d, -(diffs - level), area, reach=reach)
     if s.cells == 0:
         return nan

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..piles.results import PileFit
 from .grid import Grid
-from .measure import R95, SCOUR_KEYS, Z95, scour_of
+from .measure import R95, SCOUR_KEYS, Z95, MapNoise, scour_of
 from .options import ChangeOptions
 from .register import Registration
 
@@ -38,7 +38,7 @@ def exposed_height(p: PileFit, seabed: Grid, xy: tuple[float, float] | None = No
 
 
 def pile_change(b: PileFit, a: PileFit, a_xy: tuple[float, float], reg: Registration, opt: ChangeOptions, *,
-                diff: Grid | None, diff_sigma: float, heights: tuple[float, float]
+                diff: Grid | None, noise: MapNoise, heights: tuple[float, float]
                 ) -> tuple[dict[str, Any], tuple[str, ...], tuple[str, ...]]:
     """A matched pile's change: the values (the pile measures of
     :data:`~mbinspect.change.results.MEASURES` with their ``_lod95``, the levels read), the
@@ -62,7 +62,7 @@ def pile_change(b: PileFit, a: PileFit, a_xy: tuple[float, float], reg: Registra
     v.update(_lean(b, a, cov, heights, notes))
     if diff is not None:
         circles = [pile_outline(b), pile_outline(a) + np.subtract(a_xy, (a.x, a.y))]
-        v.update(scour_of(diff, diff_sigma, a_xy, circles, reach=opt.scour_reach))
+        v.update(scour_of(diff, noise, a_xy, circles, reach=opt.scour_reach))
     else:
         v.update(dict.fromkeys(SCOUR_KEYS, math.nan))
         notes.append("scour: no difference map")

@@ -18,7 +18,7 @@ from ..reefs.results import Reef, ReefResult
 from ..version import __version__
 from .grid import Grid, median_grid
 from .match import match_objects
-from .measure import reef_change, symmetry_turns
+from .measure import CORRELATED_AREA, MapNoise, reef_change, symmetry_turns
 from .options import ChangeOptions
 from .piles import exposed_height, pile_change, pile_outline
 from .register import IDENTITY, Registration, register
@@ -83,13 +83,15 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     db, da = _grids(b_pts, a_pts, lo, hi, opt.scour_cell, min_count=1)
     diff, diff_sigma = _difference(db, da, reg, _away(db, spots, opt.exclude_buffer))
     diff = _without_objects(diff, before, after, reg)
+    noise = MapNoise(diff_sigma, _shared_area(diff, diff_sigma))
     if isinstance(before, PileResult) and isinstance(after, PileResult):
-        objects = _piles(before, after, reg, opt, diff, diff_sigma, (db, da))
+        objects = _piles(before, after, reg, opt, diff, noise, (db, da))
     elif isinstance(before, ReefResult) and isinstance(after, ReefResult):
-        objects = _objects(before, after, reg, opt, diff, diff_sigma)
+        objects = _objects(before, after, reg, opt, diff, noise)
     report(1.0)
     params = {**opt.to_dict(), "before": _record(before), "after": _record(after),
-              "difference_sigma": diff_sigma, "software": f"mbinspect {__version__}"}
+              "difference_sigma": diff_sigma, "difference_shared_area": noise.area,
+              "software": f"mbinspect {__version__}"}
     return ChangeResult(kind, reg, tuple(objects), params, tuple(warnings), diff)
 
 
@@ -204,7 +206,7 @@ def _without_objects(diff: Grid, before: Result, after: Result, reg: Registratio
 
 
 def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: ChangeOptions, diff: Grid,
-             diff_sigma: float) -> list[ObjectChange]:
+             noise: MapNoise) -> list[ObjectChange]:
     """Every reef of either survey with its change, before ids first."""
     bxy = np.array([[r.x, r.y] for r in before.reefs]).reshape(-1, 2)
     ax, ay = reg.to_before(np.array([r.x for r in after.reefs]), np.array([r.y for r in after.reefs]))
@@ -223,7 +225,7 @@ def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: Chan
             outline = np.column_stack(reg.to_before(outline[:, 0], outline[:, 1]))
         values, detected, notes = reef_change(rb, ra, (float(ax[j]), float(ay[j])), outline, reg, opt,
                                               turn=turns.get(rb.design, 360.0), diff=diff,
-                                              diff_sigma=diff_sigma)
+                                              noise=noise)
         out.append(ObjectChange(rb.id, ra.id, "changed" if detected else "unchanged", rb.x, rb.y,
                                 float(ax[j]), float(ay[j]), values, detected, notes))
     matched = set(pairs.values())
@@ -234,7 +236,7 @@ def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: Chan
 
 
 def _piles(before: PileResult, after: PileResult, reg: Registration, opt: ChangeOptions, diff: Grid,
-           diff_sigma: float, seabeds: tuple[Grid, Grid]) -> list[ObjectChange]:
+           noise: MapNoise, seabeds: tuple[Grid, Grid]) -> list[ObjectChange]:
     """Every pile of either survey with its change, before ids first."""
     bxy = np.array([[p.x, p.y] for p in before.piles]).reshape(-1, 2)
     ax, ay = reg.to_before(np.array([p.x for p in after.piles]), np.array([p.y for p in after.piles]))
@@ -248,10 +250,35 @@ def _piles(before: PileResult, after: PileResult, reg: Registration, opt: Change
         pa = after.piles[j]
         heights = (exposed_height(pb, seabeds[0]), exposed_height(pa, seabeds[1]))
         values, detected, notes = pile_change(pb, pa, (float(ax[j]), float(ay[j])), reg, opt, diff=diff,
-                                              diff_sigma=diff_sigma, heights=heights)
+                                              noise=noise, heights=heights)
         out.append(ObjectChange(pb.id, pa.id, "changed" if detected else "unchanged", pb.x, pb.y,
                                 float(ax[j]), float(ay[j]), values, detected, notes))
     matched = set(pairs.values())
     out += [ObjectChange(None, pa.id, "new", x_after=float(ax[j]), y_after=float(ay[j]))
             for j, pa in enumerate(after.piles) if j not in matched]
     return out
+
+
+def _shared_area(diff: Grid, sigma: float) -> float:
+    """The area (m²) over which the difference map's errors are shared, measured on its
+    seabed: for blocks 1, 2 and 4 m wide, the block area times the variance of the blocks'
+    means over the cells' variance (independent cells would give one cell's area); the
+    largest, and never below :data:`~.measure.CORRELATED_AREA`."""
+    if not (math.isfinite(sigma) and sigma > 0):
+        return CORRELATED_AREA
+    best = CORRELATED_AREA
+    ny, nx = diff.z.shape
+    for side in (1.0, 2.0, 4.0):
+        b = max(int(round(side / diff.cell)), 1)
+        if ny < 2 * b or nx < 2 * b:
+            continue
+        z = diff.z[: ny // b * b, : nx // b * b].reshape(ny // b, b, nx // b, b)
+        have = np.isfinite(z).sum(axis=(1, 3))
+        with np.errstate(invalid="ignore"):
+            means = np.nanmean(z, axis=(1, 3))
+        full = means[have >= 0.75 * b * b]
+        if len(full) < 20:
+            continue
+        spread = 1.4826 * float(np.median(np.abs(full - np.median(full))))
+        best = max(best, (b * diff.cell) ** 2 * spread**2 / sigma**2)
+    return best

@@ -136,10 +136,10 @@ def checked(c: Change) -> Change:
 
 
 def random_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5, move: float = 1.5,
-                   settle: float = 0.3, scour: float = 0.5) -> tuple[Change, ...]:
+                   settle: float = 0.3, scour: float = 1.0) -> tuple[Change, ...]:
     """Changes for a study: about ``share`` of the reefs changed, each in one way drawn at
     random (moved up to ``move`` m and turned up to 30°, settled 0.05 to ``settle`` m,
-    tilted 3 to 12°, overturned, scoured up to ``scour`` m deep, or removed), the rest left
+    tilted 3 to 12°, overturned, scoured 0.3 to ``scour`` m deep at its centre, or removed), the rest left
     alone, and one new reef placed in the field at least 6 m from the others."""
     rng = np.random.default_rng(seed)
     reefs = list(truth["reefs"])
@@ -164,7 +164,7 @@ def random_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5, m
             room = min((math.hypot(o["x"] - r["x"], o["y"] - r["y"]) - max(o["length"], o["width"]) / 2
                         for o in reefs if o["id"] != rid), default=10.0)
             radius = min(size / 2 + rng.uniform(1.5, 3), max(room - 0.3, size / 2 + 0.5))
-            out.append(Change(rid, scour_depth=rng.uniform(0.15, scour), scour_radius=radius))
+            out.append(Change(rid, scour_depth=rng.uniform(0.3, scour), scour_radius=radius))
         else:
             out.append(Change(rid, status="removed"))
     spot = _free_spot(reefs, rng)
