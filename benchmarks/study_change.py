@@ -61,7 +61,8 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     designs = ",".join(sorted({r["kind"] for r in before.truth["reefs"]}))
     rb = extract_reefs(before.cloud, design=designs, seed=seed)
     ra = extract_reefs(after.cloud, design=designs, seed=seed)
-    res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz)
+    res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
+                          after_fields=after.cloud.fields)
     kinds = {c.id: _kind(c) for c in changes}
     # a pit mostly under its unit leaves a faint scour beyond it: counted apart
     true = {o["id"]: o for o in after.truth["change"]["objects"]}
@@ -236,7 +237,8 @@ def _real(placements: int) -> None:
                                    design_scale_tolerance=0.35)
                 ra = extract_reefs(PointCloud(a_xyz, dict(halves[1].fields)), design=DESIGNS,
                                    design_scale_tolerance=0.35)
-                res = compare_surveys(rb, ra, ib.xyz, a_xyz)
+                res = compare_surveys(rb, ra, ib.xyz, a_xyz, before_fields=halves[0].fields,
+                                      after_fields=halves[1].fields)
             except MBInspectError as exc:
                 tally["stopped"] += 1
                 tally["why: " + re.sub(r"\([0-9., ]+\)", "(…)", str(exc))[:60]] += 1

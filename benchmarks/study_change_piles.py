@@ -61,7 +61,8 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     radius = float(piles[0]["radius"])
     pb = locate_piles(before.cloud, radius=radius, count=n, design=design, seed=seed)
     pa = locate_piles(after.cloud, radius=radius, count=n, design=design, seed=seed)
-    res = compare_surveys(pb, pa, before.cloud.xyz, after.cloud.xyz)
+    res = compare_surveys(pb, pa, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
+                          after_fields=after.cloud.fields)
     true = {o["id"]: o for o in after.truth["change"]["objects"]}
     kinds = {c.id: _kind(c) for c in changes}
     rows = [{"id": o.id_before, "status": o.status, "detected": o.detected, "values": o.values,

@@ -38,7 +38,8 @@ def pair():
     after = resurvey(before.truth, changes, seed=7, shift=SHIFT)
     rb = extract_reefs(before.cloud, design="cross2,hollow", seed=0)
     ra = extract_reefs(after.cloud, design="cross2,hollow", seed=0)
-    res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz)
+    res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
+                          after_fields=after.cloud.fields)
     return before, after, res
 
 

@@ -35,7 +35,8 @@ def jacket(tmp_path_factory):
     design = read_design(root / "design.csv")
     pb = locate_piles(before.cloud, radius=0.75, count=4, design=design)
     pa = locate_piles(after.cloud, radius=0.75, count=4, design=design)
-    res = compare_surveys(pb, pa, before.cloud.xyz, after.cloud.xyz)
+    res = compare_surveys(pb, pa, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
+                          after_fields=after.cloud.fields)
     return before, after, res, root
 
 

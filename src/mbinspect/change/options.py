@@ -38,5 +38,12 @@ class ChangeOptions(Options):
                                 help="how far from a unit's centre the seabed is searched for scour")
     scour_cell: float = option(0.5, unit="m", check="positive",
                                help="the difference map's cell, on which scour is measured")
+    inner_angle_deg: float = option(45.0, unit="deg", check="positive",
+                                    help="where beam angles are known, soundings farther off nadir are "
+                                         "left out of the registration (a line's sound-speed error bends "
+                                         "its outer beams)")
+    level_lines: bool = option(True, help="where lines are known, level each survey's lines against each "
+                                          "other before gridding (a tide or draft error leaves steps "
+                                          "between lines)")
     rotation: bool = option(True, help="estimate a small rotation between the surveys where the seabed "
                                        "holds it")

@@ -6,7 +6,7 @@ frame, match them one to one, difference the seabed, and measure each object's c
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -16,7 +16,7 @@ from ..grid import bounds
 from ..piles.results import PileResult
 from ..reefs.results import Reef, ReefResult
 from ..version import __version__
-from .grid import Grid, median_grid
+from .grid import Grid, line_levels, median_grid
 from .match import match_objects
 from .measure import CORRELATED_AREA, MapNoise, reef_change, symmetry_turns
 from .options import ChangeOptions
@@ -32,6 +32,8 @@ Result = ReefResult | PileResult
 
 def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
                     after_points: np.ndarray, *, options: ChangeOptions | None = None,
+                    before_fields: Mapping[str, Any] | None = None,
+                    after_fields: Mapping[str, Any] | None = None,
                     progress: Callable[[float], None] | None = None,
                     **given: Any) -> ChangeResult:
     """Two surveys of one reef field, or of one jacket's piles, compared object by object.
@@ -43,6 +45,11 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
         (:func:`~mbinspect.piles.locate_piles`), or either read back; both of one kind.
     before_points, after_points : ndarray, shape (N, 3)
         Each survey's soundings, on the vertical reference its result records.
+    before_fields, after_fields : mapping, optional
+        Each survey's per-sounding fields (a :class:`~mbinspect.cloud.PointCloud`'s):
+        with ``line``, the lines are levelled against each other first
+        (:func:`~mbinspect.change.grid.line_levels`); with ``beam_angle``, the outer beams
+        are left out of the registration (``inner_angle_deg``).
     options : ChangeOptions, optional
     progress : callable, optional
         Called with the fraction done.
@@ -72,7 +79,8 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     if np.any(hi - lo < 4 * opt.cell):
         raise InputError(f"the surveys do not overlap: before spans {_span(lo_b, hi_b)}, "
                          f"after {_span(lo_a, hi_a)}")
-    gb, ga = _grids(b_pts, a_pts, lo, hi, opt.cell)
+    (b_pts, b_in), (a_pts, a_in) = _prepared(b_pts, before_fields, opt), _prepared(a_pts, after_fields, opt)
+    gb, ga = _grids(b_pts[b_in], a_pts[a_in], lo, hi, opt.cell)
     report(0.3)
     spots = _spots(before) + _spots(after)
     usable = _away(gb, spots, opt.exclude_buffer)
@@ -93,6 +101,23 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
               "difference_sigma": diff_sigma, "difference_shared_area": noise.area,
               "software": f"mbinspect {__version__}"}
     return ChangeResult(kind, reg, tuple(objects), params, tuple(warnings), diff)
+
+
+def _prepared(pts: np.ndarray, fields: Mapping[str, Any] | None, opt: ChangeOptions
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The soundings with their lines levelled (when known and asked), and which of them
+    the registration reads: those within ``inner_angle_deg`` of nadir where beam angles
+    are known and they leave at least half the soundings, else all."""
+    fields = fields or {}
+    if opt.level_lines and "line" in fields and len(np.unique(fields["line"])) > 1:
+        pts = pts.copy()
+        pts[:, 2] -= line_levels(pts, np.asarray(fields["line"]), opt.cell)
+    inner = np.ones(len(pts), bool)
+    if "beam_angle" in fields:
+        near = np.abs(np.asarray(fields["beam_angle"], np.float64)) <= opt.inner_angle_deg
+        if near.sum() >= len(pts) / 2:
+            inner = near
+    return pts, inner
 
 
 def _span(lo: np.ndarray, hi: np.ndarray) -> str:
@@ -274,8 +299,7 @@ def _shared_area(diff: Grid, sigma: float) -> float:
             continue
         z = diff.z[: ny // b * b, : nx // b * b].reshape(ny // b, b, nx // b, b)
         have = np.isfinite(z).sum(axis=(1, 3))
-        with np.errstate(invalid="ignore"):
-            means = np.nanmean(z, axis=(1, 3))
+        means = np.where(np.isfinite(z), z, 0.0).sum(axis=(1, 3)) / np.maximum(have, 1)
         full = means[have >= 0.75 * b * b]
         if len(full) < 20:
             continue

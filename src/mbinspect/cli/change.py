@@ -73,11 +73,12 @@ def cmd_change(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
     elif args.history is not None:
         raise ParameterError("history: goes with a register alone (mbinspect change SITE.gpkg --history ID)",
                              option="history")
-    before, b_pts, b_files = _side(args.before, "before", rep, args.kind)
-    after, a_pts, a_files = _side(args.after, "after", rep, args.kind)
+    before, b_cloud, b_files = _side(args.before, "before", rep, args.kind)
+    after, a_cloud, a_files = _side(args.after, "after", rep, args.kind)
     out = Path(args.out or "change-out")
     with output_dir(out, overwrite=args.overwrite, inputs=[*b_files, *a_files]) as tmp:
-        result = compare_surveys(before, after, b_pts, a_pts, options=options,
+        result = compare_surveys(before, after, b_cloud.xyz, a_cloud.xyz, options=options,
+                                 before_fields=b_cloud.fields, after_fields=a_cloud.fields,
                                  progress=rep.progress("comparing"))
         params = {**result.parameters, "command_line": ["mbinspect", *argv],
                   "before_result": str(args.before), "after_result": str(args.after)}
@@ -180,4 +181,4 @@ def _side(path: str, which: str, rep: Reporter, kind: str | None = None) -> tupl
         files.append(str(f))
     reading = {k: v for k, v in (params.get("reading") or {}).items() if k in READ_OPTIONS}
     cloud = read_survey([Path(f) for f in files], progress=rep.progress(f"reading {which}"), **reading)
-    return result, cloud.xyz, files
+    return result, cloud, files
