@@ -9,14 +9,20 @@ centre at which the rings' mean falls to half of it, going out from the deepest 
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RING", "FOOT_MARGIN", "Scour", "scour_rings", "grown", "pit_scour"]
+__all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "grown", "pit_scour"]
 
 #: The rings' width (m).
 RING = 0.5
+
+#: How far from an object's centre its scour is looked for (m), by default; the seabed
+#: 2 m beyond is taken as undisturbed.
+REACH = 6.0
 
 #: The footprint left out of the rings grows by this much (m): the rim where the beams of
 #: two surveys sailed otherwise see the unit's edge, its shadow and its blur differently.
@@ -100,29 +106,44 @@ def grown(poly: np.ndarray, by: float = FOOT_MARGIN) -> np.ndarray:
     return c + (poly - c) * ((r + by) / np.maximum(r, 1e-9))[:, None]
 
 
-def pit_scour(depth: float, radius: float, outline: np.ndarray, centre: tuple[float, float],
-              cell: float = 0.1) -> dict[str, float]:
-    """The scour a true pit leaves round an object: a cosine bell ``depth`` m deep and
-    ``radius`` m wide centred at ``centre``, read on a ``cell`` lattice outside the object's
-    ``outline`` grown by :data:`FOOT_MARGIN`, as :func:`scour_rings` reads a difference map:
-    ``scour_depth``, ``scour_radius`` (m) and ``scour_volume`` (m³); zeros without a pit.
+def pit_scour(pits: Sequence[tuple[float, float, float, float]], outline: np.ndarray,
+              centre: tuple[float, float], *, reach: float = REACH, cell: float = 0.1) -> dict[str, float]:
+    """The scour true pits leave round an object, read as a difference map is read: every
+    pit ``(x, y, depth, radius)`` a cosine bell ``depth`` m deep and ``radius`` m wide (a
+    neighbour's pit lowers this object's rings too), on a ``cell`` lattice outside the
+    object's ``outline`` grown by :data:`FOOT_MARGIN`, against the lowering 2 m beyond
+    ``reach`` (as :func:`mbinspect.change.measure.scour_of` takes the seabed there as
+    undisturbed): ``scour_depth``, ``scour_radius`` (m) and ``scour_volume`` (m³); zeros
+    without a pit.
 
     Examples
     --------
     >>> t = np.linspace(0, 2 * np.pi, 48, endpoint=False)
-    >>> s = pit_scour(0.6, 4.0, np.column_stack([0.75 * np.sin(t), 0.75 * np.cos(t)]), (0.0, 0.0))
-    >>> round(s["scour_depth"], 3)
+    >>> ring = np.column_stack([0.75 * np.sin(t), 0.75 * np.cos(t)])
+    >>> round(pit_scour([(0.0, 0.0, 0.6, 4.0)], ring, (0.0, 0.0))["scour_depth"], 3)
     0.354
+    >>> pit_scour([(20.0, 0.0, 0.6, 4.0)], ring, (0.0, 0.0))["scour_depth"]
+    0.0
+    >>> round(pit_scour([(5.0, 0.0, 0.6, 4.0)], ring, (0.0, 0.0))["scour_depth"], 3)  # a neighbour's
+    0.078
     """
-    if depth <= 0:
-        return {"scour_depth": 0.0, "scour_radius": 0.0, "scour_volume": 0.0}
+    zero = {"scour_depth": 0.0, "scour_radius": 0.0, "scour_volume": 0.0}
+    near = [p for p in pits if p[2] > 0 and math.hypot(p[0] - centre[0], p[1] - centre[1]) < reach + 2 + p[3]]
+    if not near:
+        return zero
     from .geometry import points_in_polygon
 
-    r = np.arange(cell / 2, radius + cell, cell)
+    r = np.arange(cell / 2, reach + 2.0, cell)
     gx, gy = np.meshgrid(np.concatenate([-r[::-1], r]), np.concatenate([-r[::-1], r]))
     dist = np.hypot(gx, gy).ravel()
-    low = np.where(dist < radius, depth * (1 + np.cos(np.pi * dist / radius)) / 2, 0.0)
     pts = np.column_stack([gx.ravel() + centre[0], gy.ravel() + centre[1]])
-    outside = ~points_in_polygon(pts, grown(np.asarray(outline)))
-    s = scour_rings(dist[outside], low[outside], cell * cell, reach=radius + cell)
+    low = np.zeros(len(pts))
+    for px, py, depth, radius in near:
+        rp = np.hypot(pts[:, 0] - px, pts[:, 1] - py)
+        low += np.where(rp < radius, depth * (1 + np.cos(np.pi * rp / radius)) / 2, 0.0)
+    outside = ~points_in_polygon(pts, grown(np.asarray(outline))) & (dist <= reach + 2.0)
+    level = float(np.median(low[outside & (dist > reach)]))
+    s = scour_rings(dist[outside], low[outside] - level, cell * cell, reach=reach)
+    if s.depth <= 0:
+        return zero
     return {"scour_depth": s.depth, "scour_radius": s.radius, "scour_volume": s.volume}

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..options import Options, option
+from ..scour import REACH
 
 __all__ = ["ChangeOptions"]
 
@@ -34,14 +35,14 @@ class ChangeOptions(Options):
                                    help="a reef centre's 1-sigma in each survey (the studies: 2-5 cm)")
     bearing_sigma_deg: float = option(1.0, unit="deg", check="positive",
                                       help="a fitted design's bearing 1-sigma in each survey")
-    scour_reach: float = option(6.0, unit="m", check="positive",
+    scour_reach: float = option(REACH, unit="m", check="positive",
                                 help="how far from a unit's centre the seabed is searched for scour")
     scour_cell: float = option(0.5, unit="m", check="positive",
                                help="the difference map's cell, on which scour is measured")
-    inner_angle_deg: float = option(45.0, unit="deg", check="positive",
-                                    help="where beam angles are known, soundings farther off nadir are "
-                                         "left out of the registration (a line's sound-speed error bends "
-                                         "its outer beams)")
+    inner_angle_deg: float = option(
+        45.0, unit="deg", check="positive",
+        help="where beam angles are known, soundings farther off nadir are left out of the registration "
+             "(a line's sound-speed error bends its outer beams; 90 reads every beam)")
     level_lines: bool = option(True, help="where lines are known, level each survey's lines against each "
                                           "other before gridding (a tide or draft error leaves steps "
                                           "between lines)")

@@ -79,7 +79,10 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     if np.any(hi - lo < 4 * opt.cell):
         raise InputError(f"the surveys do not overlap: before spans {_span(lo_b, hi_b)}, "
                          f"after {_span(lo_a, hi_a)}")
-    (b_pts, b_in), (a_pts, a_in) = _prepared(b_pts, before_fields, opt), _prepared(a_pts, after_fields, opt)
+    inner = opt.inner_angle_deg
+    (b_pts, b_in), (a_pts, a_in) = (_prepared(b_pts, before_fields, opt.level_lines, inner),
+                                    _prepared(a_pts, after_fields, opt.level_lines, inner))
+    warnings += _unlevelled(before_fields, after_fields, opt.level_lines)
     gb, ga = _grids(b_pts[b_in], a_pts[a_in], lo, hi, opt.cell)
     report(0.3)
     spots = _spots(before) + _spots(after)
@@ -97,27 +100,39 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     elif isinstance(before, ReefResult) and isinstance(after, ReefResult):
         objects = _objects(before, after, reg, opt, diff, noise)
     report(1.0)
-    params = {**opt.to_dict(), "before": _record(before), "after": _record(after),
+    params = {**opt.to_dict(), "before": _record(before),
+              "after": _record(after),
               "difference_sigma": diff_sigma, "difference_shared_area": noise.area,
               "software": f"mbinspect {__version__}"}
     return ChangeResult(kind, reg, tuple(objects), params, tuple(warnings), diff)
 
 
-def _prepared(pts: np.ndarray, fields: Mapping[str, Any] | None, opt: ChangeOptions
+def _prepared(pts: np.ndarray, fields: Mapping[str, Any] | None, level: bool, inner_deg: float
               ) -> tuple[np.ndarray, np.ndarray]:
-    """The soundings with their lines levelled (when known and asked), and which of them
-    the registration reads: those within ``inner_angle_deg`` of nadir where beam angles
-    are known and they leave at least half the soundings, else all."""
+    """The soundings with their lines levelled (when known and ``level``), and which of
+    them the registration reads: those within ``inner_deg`` of nadir where beam angles are
+    known and they leave at least half the soundings, else all."""
     fields = fields or {}
-    if opt.level_lines and "line" in fields and len(np.unique(fields["line"])) > 1:
+    if level and "line" in fields and len(np.unique(fields["line"])) > 1:
         pts = pts.copy()
-        pts[:, 2] -= line_levels(pts, np.asarray(fields["line"]), opt.cell)
+        pts[:, 2] -= line_levels(pts, np.asarray(fields["line"]))
     inner = np.ones(len(pts), bool)
     if "beam_angle" in fields:
-        near = np.abs(np.asarray(fields["beam_angle"], np.float64)) <= opt.inner_angle_deg
+        near = np.abs(np.asarray(fields["beam_angle"], np.float64)) <= inner_deg
         if near.sum() >= len(pts) / 2:
             inner = near
     return pts, inner
+
+
+def _unlevelled(before: Mapping[str, Any] | None, after: Mapping[str, Any] | None, level: bool) -> list[str]:
+    """A warning for each survey whose lines could not be levelled: its soundings carry no line."""
+    if not level:
+        return []
+    return [f"the {which} survey's soundings carry no line (ASCII): its lines were not "
+            "levelled against each other, and a step between them can pass for a plan shift on a smooth "
+            "seabed; a format that keeps lines (LAS/LAZ, the sonars' own) avoids it"
+            for which, f in (("before", before), ("after", after))
+            if f is None or "line" not in f]
 
 
 def _span(lo: np.ndarray, hi: np.ndarray) -> str:

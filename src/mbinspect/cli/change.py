@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -145,7 +146,7 @@ def _print(result: Any) -> None:
             parts.append("overturned" if o.values.get("overturned_after") else "upright again")
         print(f"  {result.kind[:-1]} {o.id_before} (after: {o.id_after}): " + ", ".join(parts))
     for w in result.warnings:
-        print(f"mbinspect: warning: {w}")
+        print(f"mbinspect: warning: {w}", file=sys.stderr)
 
 
 def _side(path: str, which: str, rep: Reporter, kind: str | None = None) -> tuple[Any, Any, list[str]]:

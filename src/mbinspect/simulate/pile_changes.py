@@ -71,11 +71,12 @@ def true_pile_changes(before: Scene, after: Scene, changes: Sequence[Any], origi
                       ) -> list[dict[str, Any]]:
     """Per pile, its true change in the before survey's frame: the top centre's ``dx``,
     ``dy``, ``displacement``, the top's ``settlement`` (positive down), the tilt before and
-    after and its change, and the scour (as :func:`~mbinspect.simulate.resurvey.scour_truth`
-    reads it round the pile's circle)."""
+    after and its change, and the scour every pit of the scene leaves round the pile's circle (as
+    :func:`~mbinspect.scour.pit_scour` reads it)."""
     from ..scour import pit_scour
 
     by_id = {c.id: c for c in changes}
+    dug = [(x + origin[0], y + origin[1], d, r) for x, y, d, r in after.seabed.pits[len(before.seabed.pits):]]
     out = []
     for i, (pb, pa) in enumerate(zip(before.piles, after.piles, strict=True)):
         dx, dy = pa.x - pb.x, pa.y - pb.y
@@ -83,8 +84,7 @@ def true_pile_changes(before: Scene, after: Scene, changes: Sequence[Any], origi
         outline = np.column_stack([pa.x + origin[0] + pa.radius * np.sin(ring),
                                    pa.y + origin[1] + pa.radius * np.cos(ring)])
         c = by_id.get(i + 1)
-        scour = pit_scour(c.scour_depth if c is not None else 0.0, c.scour_radius if c is not None else 0.0,
-                          outline, (pa.x + origin[0], pa.y + origin[1]))
+        scour = pit_scour(dug, outline, (pa.x + origin[0], pa.y + origin[1]))
         out.append({"id": i + 1, "status": "changed" if c is not None else "unchanged",
                     "x_before": pb.x + origin[0], "y_before": pb.y + origin[1], "x_after": pa.x + origin[0],
                     "y_after": pa.y + origin[1], "dx": dx, "dy": dy, "displacement": math.hypot(dx, dy),

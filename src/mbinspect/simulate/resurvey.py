@@ -316,6 +316,7 @@ def _true_changes(before: Scene, after: Scene, changes: Sequence[Change], origin
     by_id = {c.id: c for c in changes}
     b = {r.id: r for r in before.reefs}
     a = {r.id: r for r in after.reefs}
+    dug = after.seabed.pits[len(before.seabed.pits):]
     out = []
     for rid in sorted(set(b) | set(a)):
         if rid not in a:
@@ -337,18 +338,21 @@ def _true_changes(before: Scene, after: Scene, changes: Sequence[Change], origin
                     "tilt_after": a[rid].tilt_deg,
                     "overturned_before": b[rid].orientation != "upright",
                     "overturned_after": a[rid].orientation != "upright",
-                    **scour_truth(c, ta, (a[rid].x + origin[0], a[rid].y + origin[1]))})
+                    **scour_truth(dug, ta, (a[rid].x, a[rid].y), origin)})
     return out
 
 
-def scour_truth(c: Change, reef: Mapping[str, Any], centre: tuple[float, float], cell: float = 0.1
-                ) -> dict[str, float]:
-    """The scour a pit (centred at ``centre``) leaves round a reef, outside its footprint
-    grown by :data:`mbinspect.scour.FOOT_MARGIN` (``reef``: its truth record), read as
-    :func:`mbinspect.scour.scour_rings` reads a difference map: depth, radius and volume (m³)."""
+def scour_truth(pits: Sequence[tuple[float, float, float, float]], reef: Mapping[str, Any],
+                centre: tuple[float, float], origin: tuple[float, float]) -> dict[str, float]:
+    """The scour the scene's ``pits`` (local coordinates, as the seabed holds them) leave
+    round a reef centred at local ``centre``, outside its footprint (``reef``: its truth
+    record, in the survey's coordinates) grown by :data:`mbinspect.scour.FOOT_MARGIN`,
+    read as :func:`mbinspect.scour.pit_scour` reads them: depth, radius and volume (m³)."""
     from ..scour import pit_scour
 
-    return pit_scour(c.scour_depth, c.scour_radius, np.asarray(reef["outline"]), centre, cell)
+    ox, oy = origin
+    return pit_scour([(x + ox, y + oy, d, r) for x, y, d, r in pits], np.asarray(reef["outline"]),
+                     (centre[0] + ox, centre[1] + oy))
 
 
 def random_pile_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5) -> tuple[Change, ...]:
