@@ -127,3 +127,25 @@ def run_study(description: str | None, configs: Sequence[str], default_seeds: in
     with ProcessPoolExecutor(args.workers) as pool:
         results = [r for rows in pool.map(run_one, jobs) for r in rows]
     return chosen, results
+
+
+def unborne(detected, values, truth) -> list[str]:
+    """The changes detected on a unit that its truth does not bear out: the true value of
+    the measure (a neighbour's scour pit reaching its rings counts as its own) within half
+    the measure's level of detection of nothing; a turn over when it rests as it did."""
+    out = []
+    for m in detected:
+        if m == "overturned":
+            if bool(truth.get("overturned_before")) == bool(truth.get("overturned_after")):
+                out.append(m)
+            continue
+        if m == "tilt_change_deg":
+            tv = truth.get("tilt_change_deg", truth.get("tilt_after", 0.0) - truth.get("tilt_before", 0.0))
+        elif m == "height_change":
+            tv = truth.get("height_after", 0.0) - truth.get("height_before", 0.0)
+        else:
+            tv = truth.get(m, 0.0)
+        lod = values.get(m + "_lod95")
+        if lod is None or not abs(tv) >= 0.5 * lod:
+            out.append(m)
+    return out

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import run_study, table  # noqa: E402
+from _common import run_study, table, unborne  # noqa: E402
 from mbinspect.change import compare_surveys  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
 from mbinspect.piles.design import Design  # noqa: E402
@@ -90,8 +90,9 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[list[str]]]:
                 k = "faint scour"
             if k is None:
                 unchanged += 1
-                false_calls += bool(row["detected"])
-                why.update(row["detected"])
+                wrong_calls = unborne(row["detected"], row["values"], t)
+                false_calls += bool(wrong_calls)
+                why.update(wrong_calls)
             else:
                 total[k] += 1
                 found[k] += SHOWN.get(k, "scour_depth") in row["detected"]

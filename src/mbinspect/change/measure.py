@@ -46,6 +46,43 @@ class MapNoise:
 
     sigma: float
     area: float = CORRELATED_AREA
+    scour_null95: float = 0.0
+
+
+def null_scour(diff: Grid, noise: MapNoise, radius: float, *, reach: float) -> tuple[float, int]:
+    """The scour depth the map shows where nothing was dug: read as :func:`scour_of` reads
+    it round centres on a lattice ``reach`` m apart over the map (each with a footprint of
+    ``radius`` m left out, as a unit's is; farther apart on a large map, about 300 in
+    all), at those whose surroundings are mostly mapped;
+    the 95th percentile of those depths and how many centres gave it (0 and 0 below 20).
+    It carries what the cells' spread does not: steps and stripes between lines, the
+    registration's residual tilt, the swath edges, each many metres long.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> g = Grid(0.0, 0.0, 0.5, rng.normal(0, 0.01, (160, 160)), np.ones((160, 160), int))
+    >>> q, n = null_scour(g, MapNoise(0.01), 1.0, reach=6.0)
+    >>> n >= 20 and 0.0 < q < 0.01
+    True
+    """
+    x, y = diff.centres()
+    span_x, span_y = float(x.max() - x.min()), float(y.max() - y.min())
+    step = max(reach, math.sqrt(span_x * span_y / 300.0))  # at most about 300 centres
+    t = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    ring = radius * np.column_stack([np.sin(t), np.cos(t)])
+    depths = []
+    for cx in float(x.min()) + step / 2 + np.arange(max(int(span_x // step), 0)) * step:
+        for cy in float(y.min()) + step / 2 + np.arange(max(int(span_y // step), 0)) * step:
+            near = np.hypot(x - cx, y - cy) <= reach + 2.0
+            if np.isfinite(diff.z[near]).mean() < 0.6:
+                continue
+            d = scour_of(diff, noise, (cx, cy), [ring + (cx, cy)], reach=reach)["scour_depth"]
+            if math.isfinite(d):
+                depths.append(max(d, 0.0))
+    if len(depths) < 20:
+        return 0.0, len(depths)
+    return float(np.percentile(depths, 95)), len(depths)
 
 
 def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarray, reg: Registration,
@@ -151,7 +188,8 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     if s.cells == 0:
         return nan
     ref_var = sigma**2 / max(ref_cells.sum() * share, 1.0)
-    depth_lod = Z95 * math.sqrt(sigma**2 / max(s.deepest_cells * share, 1.0) + ref_var)
+    depth_lod = max(Z95 * math.sqrt(sigma**2 / max(s.deepest_cells * share, 1.0) + ref_var),
+                    noise.scour_null95)
     vol_lod = Z95 * math.sqrt(s.cells * area**2 * sigma**2 / share + (s.cells * area) ** 2 * ref_var)
     found = s.depth > depth_lod
     return {"scour_depth": s.depth, "scour_depth_lod95": depth_lod,

@@ -16,9 +16,9 @@ from ..grid import bounds
 from ..piles.results import PileResult
 from ..reefs.results import Reef, ReefResult
 from ..version import __version__
-from .grid import Grid, line_levels, median_grid
+from .grid import Grid, line_levels, median_grid, ping_levels
 from .match import match_objects
-from .measure import CORRELATED_AREA, MapNoise, reef_change, symmetry_turns
+from .measure import CORRELATED_AREA, MapNoise, null_scour, reef_change, symmetry_turns
 from .options import ChangeOptions
 from .piles import exposed_height, pile_change, pile_outline
 from .register import IDENTITY, Registration, register
@@ -47,8 +47,9 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
         Each survey's soundings, on the vertical reference its result records.
     before_fields, after_fields : mapping, optional
         Each survey's per-sounding fields (a :class:`~mbinspect.cloud.PointCloud`'s):
-        with ``line``, the lines are levelled against each other first
-        (:func:`~mbinspect.change.grid.line_levels`); with ``beam_angle``, the outer beams
+        with ``ping``, each ping is levelled against the others of its line
+        (:func:`~mbinspect.change.grid.ping_levels`), with ``line``, the lines against each
+        other (:func:`~mbinspect.change.grid.line_levels`); with ``beam_angle``, the outer beams
         are left out of the registration (``inner_angle_deg``).
     options : ChangeOptions, optional
     progress : callable, optional
@@ -95,6 +96,8 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     diff, diff_sigma = _difference(db, da, reg, _away(db, spots, opt.exclude_buffer))
     diff = _without_objects(diff, before, after, reg)
     noise = MapNoise(diff_sigma, _shared_area(diff, diff_sigma))
+    null95, null_n = null_scour(diff, noise, _typical_radius(before), reach=opt.scour_reach)
+    noise = MapNoise(noise.sigma, noise.area, null95)
     if isinstance(before, PileResult) and isinstance(after, PileResult):
         objects = _piles(before, after, reg, opt, diff, noise, (db, da))
     elif isinstance(before, ReefResult) and isinstance(after, ReefResult):
@@ -103,19 +106,24 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     params = {**opt.to_dict(), "before": _record(before),
               "after": _record(after),
               "difference_sigma": diff_sigma, "difference_shared_area": noise.area,
+              "scour_null95": null95, "scour_null_centres": null_n,
               "software": f"mbinspect {__version__}"}
     return ChangeResult(kind, reg, tuple(objects), params, tuple(warnings), diff)
 
 
 def _prepared(pts: np.ndarray, fields: Mapping[str, Any] | None, level: bool, inner_deg: float
               ) -> tuple[np.ndarray, np.ndarray]:
-    """The soundings with their lines levelled (when known and ``level``), and which of
+    """The soundings with their pings and lines levelled (when known and ``level``), and which of
     them the registration reads: those within ``inner_deg`` of nadir where beam angles are
     known and they leave at least half the soundings, else all."""
     fields = fields or {}
-    if level and "line" in fields and len(np.unique(fields["line"])) > 1:
+    line = np.asarray(fields["line"]) if "line" in fields else np.zeros(len(pts), np.int8)
+    if level and "ping" in fields:
         pts = pts.copy()
-        pts[:, 2] -= line_levels(pts, np.asarray(fields["line"]))
+        pts[:, 2] -= ping_levels(pts, line, np.asarray(fields["ping"]))
+    if level and len(np.unique(line)) > 1:
+        pts = pts.copy()
+        pts[:, 2] -= line_levels(pts, line)
     inner = np.ones(len(pts), bool)
     if "beam_angle" in fields:
         near = np.abs(np.asarray(fields["beam_angle"], np.float64)) <= inner_deg
@@ -224,6 +232,15 @@ def _outlines(r: Result) -> list[np.ndarray]:
     return [np.asarray(f.outline) for f in r.reefs if len(f.outline) >= 3] + [
         np.column_stack([o.x + math.sqrt(max(o.area, 0.01) / math.pi) * np.sin(t),
                          o.y + math.sqrt(max(o.area, 0.01) / math.pi) * np.cos(t)]) for o in r.others]
+
+
+def _typical_radius(r: Result) -> float:
+    """The median radius of a result's objects (a reef's of its footprint's area), 1 m if none."""
+    if isinstance(r, PileResult):
+        radii = [p.radius for p in r.piles]
+    else:
+        radii = [math.sqrt(max(f.area, 0.01) / math.pi) for f in r.reefs]
+    return float(np.median(radii)) if radii else 1.0
 
 
 def _without_objects(diff: Grid, before: Result, after: Result, reg: Registration) -> Grid:
