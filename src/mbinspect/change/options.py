@@ -42,7 +42,8 @@ class ChangeOptions(Options):
     inner_angle_deg: float = option(
         45.0, unit="deg", check="positive",
         help="where beam angles are known, soundings farther off nadir are left out of the registration "
-             "(a line's sound-speed error bends its outer beams; 90 reads every beam)")
+             "(a line's sound-speed error bends its outer beams), unless that leaves the plan shift half "
+             "again as uncertain as every beam does; 90 reads every beam")
     level_lines: bool = option(True, help="where lines are known, level each survey's lines against each "
                                           "other before gridding (a tide or draft error leaves steps "
                                           "between lines)")

@@ -26,6 +26,36 @@ def pile_outline(p: PileFit, points: int = 24) -> np.ndarray:
     return np.column_stack([p.x + p.radius * np.sin(t), p.y + p.radius * np.cos(t)])
 
 
+def pile_footprint(p: PileFit, height: float, points: int = 24) -> tuple[np.ndarray, tuple[float, float]]:
+    """What a pile covers in plan, from its top down to the seabed ``height`` m below the
+    top (the hull of its top circle and its section at the seabed, an ellipse along its
+    lean), and its foot: where its axis meets the seabed. A plumb pile, an unknown lean or
+    height: the top circle and its centre.
+
+    Examples
+    --------
+    >>> from mbinspect.piles.results import PileFit
+    >>> p = PileFit(1, 0.0, 0.0, -5.0, 0.5, 10.0, 90.0, "x", 10, 100, 360.0, 0.01, 0.005)
+    >>> poly, foot = pile_footprint(p, 10.0)
+    >>> round(foot[0], 2), round(abs(foot[1]), 2), round(float(poly[:, 0].min()), 2)
+    (-1.76, 0.0, -2.27)
+    """
+    top = pile_outline(p, points)
+    if p.tilt_deg is None or p.tilt_azimuth_deg is None or not math.isfinite(height) or p.tilt_deg < 0.5:
+        return top, (p.x, p.y)
+    from scipy.spatial import ConvexHull
+
+    t = math.radians(p.tilt_deg)
+    u = np.array([math.sin(math.radians(p.tilt_azimuth_deg)), math.cos(math.radians(p.tilt_azimuth_deg))])
+    foot = (float(p.x - height * math.tan(t) * u[0]), float(p.y - height * math.tan(t) * u[1]))
+    a = np.linspace(0, 2 * math.pi, points, endpoint=False)
+    along, across = p.radius / math.cos(t) * np.cos(a), p.radius * np.sin(a)
+    section = np.column_stack([foot[0] + along * u[0] + across * u[1],
+                               foot[1] + along * u[1] - across * u[0]])
+    both = np.vstack([top, section])
+    return both[ConvexHull(both).vertices], foot
+
+
 def exposed_height(p: PileFit, seabed: Grid, xy: tuple[float, float] | None = None) -> float:
     """The top's height above the seabed round the pile: the median of the grid's cells
     between 1.5 and 3 radii plus 1 m from the centre (NaN: no seabed there)."""
@@ -61,8 +91,10 @@ def pile_change(b: PileFit, a: PileFit, a_xy: tuple[float, float], reg: Registra
     v["height_change_lod95"] = v["settlement_lod95"]
     v.update(_lean(b, a, cov, heights, notes))
     if diff is not None:
-        circles = [pile_outline(b), pile_outline(a) + np.subtract(a_xy, (a.x, a.y))]
-        v.update(scour_of(diff, noise, a_xy, circles, reach=opt.scour_reach))
+        (fb, _), (fa, foot) = pile_footprint(b, heights[0]), pile_footprint(a, heights[1])
+        move = np.subtract(a_xy, (a.x, a.y))
+        v.update(scour_of(diff, noise, (foot[0] + move[0], foot[1] + move[1]), [fb, fa + move],
+                          reach=opt.scour_reach))
     else:
         v.update(dict.fromkeys(SCOUR_KEYS, math.nan))
         notes.append("scour: no difference map")

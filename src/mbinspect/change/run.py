@@ -20,7 +20,7 @@ from .grid import Grid, line_levels, median_grid, ping_levels
 from .match import match_objects
 from .measure import CORRELATED_AREA, MapNoise, null_scour, reef_change, symmetry_turns
 from .options import ChangeOptions
-from .piles import exposed_height, pile_change, pile_outline
+from .piles import exposed_height, pile_change, pile_footprint, pile_outline
 from .register import IDENTITY, Registration, register
 from .results import ChangeResult, ObjectChange
 
@@ -84,17 +84,14 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     (b_pts, b_in), (a_pts, a_in) = (_prepared(b_pts, before_fields, opt.level_lines, inner),
                                     _prepared(a_pts, after_fields, opt.level_lines, inner))
     warnings += _unlevelled(before_fields, after_fields, opt.level_lines)
-    gb, ga = _grids(b_pts[b_in], a_pts[a_in], lo, hi, opt.cell)
-    report(0.3)
     spots = _spots(before) + _spots(after)
-    usable = _away(gb, spots, opt.exclude_buffer)
-    reg = register(gb, ga, usable, rotation=opt.rotation)
+    reg, beams = _registered(b_pts, a_pts, (b_in, a_in), spots, lo, hi, opt)
+    report(0.6)
     if reg is IDENTITY:
         warnings.append(reg.note)
-    report(0.6)
     db, da = _grids(b_pts, a_pts, lo, hi, opt.scour_cell, min_count=1)
     diff, diff_sigma = _difference(db, da, reg, _away(db, spots, opt.exclude_buffer))
-    diff = _without_objects(diff, before, after, reg)
+    diff = _without_objects(diff, before, after, reg, (db, da))
     noise = MapNoise(diff_sigma, _shared_area(diff, diff_sigma))
     null95, null_n = null_scour(diff, noise, _typical_radius(before), reach=opt.scour_reach)
     noise = MapNoise(noise.sigma, noise.area, null95)
@@ -103,7 +100,7 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     elif isinstance(before, ReefResult) and isinstance(after, ReefResult):
         objects = _objects(before, after, reg, opt, diff, noise)
     report(1.0)
-    params = {**opt.to_dict(), "before": _record(before),
+    params = {**opt.to_dict(), "registration_beams": beams, "before": _record(before),
               "after": _record(after),
               "difference_sigma": diff_sigma, "difference_shared_area": noise.area,
               "scour_null95": null95, "scour_null_centres": null_n,
@@ -130,6 +127,26 @@ def _prepared(pts: np.ndarray, fields: Mapping[str, Any] | None, level: bool, in
         if near.sum() >= len(pts) / 2:
             inner = near
     return pts, inner
+
+
+def _registered(b_pts: np.ndarray, a_pts: np.ndarray, inner: tuple[np.ndarray, np.ndarray], spots: list[Any],
+                lo: np.ndarray, hi: np.ndarray, opt: ChangeOptions) -> tuple[Registration, str]:
+    """The registration on the inner beams, or on every beam where the inner ones alone
+    leave the plan shift half again as uncertain (a sonar whose beams crowd its swath's
+    edges, a small survey), and which beams it read."""
+    def on(b: np.ndarray, a: np.ndarray) -> Registration:
+        gb, ga = _grids(b, a, lo, hi, opt.cell)
+        return register(gb, ga, _away(gb, spots, opt.exclude_buffer), rotation=opt.rotation)
+
+    b_in, a_in = inner
+    reg = on(b_pts[b_in], a_pts[a_in])
+    if b_in.all() and a_in.all():
+        return reg, "all"
+    every = on(b_pts, a_pts)
+    plan = [max(r.sigma_dx, r.sigma_dy) for r in (reg, every)]
+    if every is not IDENTITY and (reg is IDENTITY or not plan[0] <= 1.5 * plan[1]):
+        return every, "all"
+    return reg, f"within {opt.inner_angle_deg:g} deg of nadir"
 
 
 def _unlevelled(before: Mapping[str, Any] | None, after: Mapping[str, Any] | None, level: bool) -> list[str]:
@@ -223,11 +240,13 @@ def _difference(b: Grid, a: Grid, reg: Registration, usable: np.ndarray) -> tupl
     return Grid(b.x0, b.y0, b.cell, d, b.n), sigma
 
 
-def _outlines(r: Result) -> list[np.ndarray]:
-    """Every object's outline (a pile's circle; a reef's footprint), the others' as circles of
-    their area."""
+def _outlines(r: Result, seabed: Grid | None = None) -> list[np.ndarray]:
+    """Every object's outline (a pile's plan cover from top to ``seabed``, or its top
+    circle without one; a reef's footprint), the others' as circles of their area."""
     if isinstance(r, PileResult):
-        return [pile_outline(p) for p in r.piles]
+        if seabed is None:
+            return [pile_outline(p) for p in r.piles]
+        return [pile_footprint(p, exposed_height(p, seabed))[0] for p in r.piles]
     t = np.linspace(0, 2 * math.pi, 16, endpoint=False)
     return [np.asarray(f.outline) for f in r.reefs if len(f.outline) >= 3] + [
         np.column_stack([o.x + math.sqrt(max(o.area, 0.01) / math.pi) * np.sin(t),
@@ -243,7 +262,8 @@ def _typical_radius(r: Result) -> float:
     return float(np.median(radii)) if radii else 1.0
 
 
-def _without_objects(diff: Grid, before: Result, after: Result, reg: Registration) -> Grid:
+def _without_objects(diff: Grid, before: Result, after: Result, reg: Registration,
+                     seabeds: tuple[Grid, Grid]) -> Grid:
     """The difference map with every object of either survey left out (its footprint grown
     by :data:`mbinspect.scour.FOOT_MARGIN`; the after survey's carried into the before
     frame): what is left is the seabed."""
@@ -252,7 +272,8 @@ def _without_objects(diff: Grid, before: Result, after: Result, reg: Registratio
 
     x, y = diff.centres()
     z = diff.z.copy()
-    polys = _outlines(before) + [np.column_stack(reg.to_before(o[:, 0], o[:, 1])) for o in _outlines(after)]
+    polys = _outlines(before, seabeds[0]) + [np.column_stack(reg.to_before(o[:, 0], o[:, 1]))
+                                             for o in _outlines(after, seabeds[1])]
     for poly in polys:
         lo, hi = poly.min(axis=0) - FOOT_MARGIN - diff.cell, poly.max(axis=0) + FOOT_MARGIN + diff.cell
         box = (x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])

@@ -46,10 +46,28 @@ def changed_piles(scene: Scene, changes: Sequence[Any]) -> Scene:
             piles.append(p)
             continue
         piles.append(_moved(p, c, float(scene.seabed.elevation(p.x, p.y))))
-        if c.scour_depth > 0:
-            pits.append((p.x, p.y, c.scour_depth, c.scour_radius))
+        if c.scour_depth > 0:  # round the foot, where the pile meets the seabed
+            fx, fy = _foot(p, float(scene.seabed.elevation(p.x, p.y)))
+            pits.append((fx, fy, c.scour_depth, c.scour_radius))
     seabed = dataclasses.replace(scene.seabed, pits=scene.seabed.pits + tuple(pits)) if pits else scene.seabed
     return dataclasses.replace(scene, seabed=seabed, piles=tuple(piles))
+
+
+def _foot(p: Pile, seabed_z: float) -> tuple[float, float]:
+    """Where the pile's axis meets the seabed's height (local x, y)."""
+    axis = p.axis
+    foot = np.array([p.x, p.y, p.top_z]) - axis * (p.top_z - seabed_z) / axis[2]
+    return float(foot[0]), float(foot[1])
+
+
+def _section(p: Pile, centre: tuple[float, float], points: int = 48) -> np.ndarray:
+    """The pile's horizontal section about ``centre``: an ellipse, the radius stretched by
+    1/cos(tilt) toward its lean."""
+    t = np.linspace(0, 2 * math.pi, points, endpoint=False)
+    u = bearing_to_vector(p.tilt_bearing_deg)
+    along, across = p.radius / math.cos(math.radians(p.tilt_deg)) * np.cos(t), p.radius * np.sin(t)
+    return np.column_stack([centre[0] + along * u[0] + across * u[1],
+                            centre[1] + along * u[1] - across * u[0]])
 
 
 def _moved(p: Pile, c: Any, seabed_z: float) -> Pile:
@@ -71,8 +89,8 @@ def true_pile_changes(before: Scene, after: Scene, changes: Sequence[Any], origi
                       ) -> list[dict[str, Any]]:
     """Per pile, its true change in the before survey's frame: the top centre's ``dx``,
     ``dy``, ``displacement``, the top's ``settlement`` (positive down), the tilt before and
-    after and its change, and the scour every pit of the scene leaves round the pile's circle (as
-    :func:`~mbinspect.scour.pit_scour` reads it)."""
+    after and its change, and the scour every pit of the scene leaves round the pile's foot
+    (its section at the seabed; as :func:`~mbinspect.scour.pit_scour` reads it)."""
     from ..scour import pit_scour
 
     by_id = {c.id: c for c in changes}
@@ -80,11 +98,10 @@ def true_pile_changes(before: Scene, after: Scene, changes: Sequence[Any], origi
     out = []
     for i, (pb, pa) in enumerate(zip(before.piles, after.piles, strict=True)):
         dx, dy = pa.x - pb.x, pa.y - pb.y
-        ring = np.linspace(0, 2 * math.pi, 48, endpoint=False)
-        outline = np.column_stack([pa.x + origin[0] + pa.radius * np.sin(ring),
-                                   pa.y + origin[1] + pa.radius * np.cos(ring)])
+        fx, fy = _foot(pa, float(after.seabed.elevation(pa.x, pa.y)))
+        foot = (fx + origin[0], fy + origin[1])
         c = by_id.get(i + 1)
-        scour = pit_scour(dug, outline, (pa.x + origin[0], pa.y + origin[1]))
+        scour = pit_scour(dug, _section(pa, foot), foot)
         out.append({"id": i + 1, "status": "changed" if c is not None else "unchanged",
                     "x_before": pb.x + origin[0], "y_before": pb.y + origin[1], "x_after": pa.x + origin[0],
                     "y_after": pa.y + origin[1], "dx": dx, "dy": dy, "displacement": math.hypot(dx, dy),
