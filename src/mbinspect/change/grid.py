@@ -206,8 +206,9 @@ def ping_levels(points: np.ndarray, line: np.ndarray, ping: np.ndarray, cell: fl
     cell_key = (j.astype(np.int64) * (int(i.max()) + 1) + i) * len(lines) + li
     med, count = _group_medians(pts[:, 2], cell_key)
     resid = pts[:, 2] - med
-    _, pk = np.unique(np.column_stack([li, np.asarray(ping)]), axis=0, return_inverse=True)
-    pk = pk.ravel()
+    pg = np.asarray(ping).astype(np.int64)
+    pg -= int(pg.min())
+    _, pk = np.unique(li.astype(np.int64) * (int(pg.max()) + 1) + pg, return_inverse=True)
     use = count >= 3
     off_use, n_use = _group_medians(resid[use], pk[use])
     off = np.zeros(int(pk.max()) + 1)
