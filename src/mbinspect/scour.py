@@ -107,11 +107,13 @@ def grown(poly: np.ndarray, by: float = FOOT_MARGIN) -> np.ndarray:
 
 
 def pit_scour(pits: Sequence[tuple[float, float, float, float]], outline: np.ndarray,
-              centre: tuple[float, float], *, reach: float = REACH, cell: float = 0.1) -> dict[str, float]:
+              centre: tuple[float, float], *, reach: float = REACH, cell: float = 0.1,
+              others: Sequence[np.ndarray] = ()) -> dict[str, float]:
     """The scour true pits leave round an object, read as a difference map is read: every
     pit ``(x, y, depth, radius)`` a cosine bell ``depth`` m deep and ``radius`` m wide (a
     neighbour's pit lowers this object's rings too), on a ``cell`` lattice outside the
-    object's ``outline`` grown by :data:`FOOT_MARGIN`, against the lowering 2 m beyond
+    object's ``outline`` (and the ``others``' outlines, as the map leaves every object out)
+    grown by :data:`FOOT_MARGIN`, against the lowering 2 m beyond
     ``reach`` (as :func:`mbinspect.change.measure.scour_of` takes the seabed there as
     undisturbed): ``scour_depth``, ``scour_radius`` (m) and ``scour_volume`` (m³); zeros
     without a pit.
@@ -142,6 +144,10 @@ def pit_scour(pits: Sequence[tuple[float, float, float, float]], outline: np.nda
         rp = np.hypot(pts[:, 0] - px, pts[:, 1] - py)
         low += np.where(rp < radius, depth * (1 + np.cos(np.pi * rp / radius)) / 2, 0.0)
     outside = ~points_in_polygon(pts, grown(np.asarray(outline))) & (dist <= reach + 2.0)
+    for poly in others:  # the map leaves every object out, not only this one
+        poly = np.asarray(poly)
+        if len(poly) >= 3 and float(np.hypot(*(poly - centre).T).min()) < reach + 3:
+            outside &= ~points_in_polygon(pts, grown(poly))
     level = float(np.median(low[outside & (dist > reach)]))
     s = scour_rings(dist[outside], low[outside] - level, cell * cell, reach=reach)
     if s.depth <= 0:

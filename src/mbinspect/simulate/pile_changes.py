@@ -95,13 +95,14 @@ def true_pile_changes(before: Scene, after: Scene, changes: Sequence[Any], origi
 
     by_id = {c.id: c for c in changes}
     dug = [(x + origin[0], y + origin[1], d, r) for x, y, d, r in after.seabed.pits[len(before.seabed.pits):]]
+    feet = [(x + origin[0], y + origin[1]) for x, y in
+            (_foot(p, float(after.seabed.elevation(p.x, p.y))) for p in after.piles)]
+    sections = [_section(p, f) for p, f in zip(after.piles, feet, strict=True)]
     out = []
     for i, (pb, pa) in enumerate(zip(before.piles, after.piles, strict=True)):
         dx, dy = pa.x - pb.x, pa.y - pb.y
-        fx, fy = _foot(pa, float(after.seabed.elevation(pa.x, pa.y)))
-        foot = (fx + origin[0], fy + origin[1])
         c = by_id.get(i + 1)
-        scour = pit_scour(dug, _section(pa, foot), foot)
+        scour = pit_scour(dug, sections[i], feet[i], others=sections[:i] + sections[i + 1:])
         out.append({"id": i + 1, "status": "changed" if c is not None else "unchanged",
                     "x_before": pb.x + origin[0], "y_before": pb.y + origin[1], "x_after": pa.x + origin[0],
                     "y_after": pa.y + origin[1], "dx": dx, "dy": dy, "displacement": math.hypot(dx, dy),

@@ -317,12 +317,14 @@ def _true_changes(before: Scene, after: Scene, changes: Sequence[Change], origin
     b = {r.id: r for r in before.reefs}
     a = {r.id: r for r in after.reefs}
     dug = after.seabed.pits[len(before.seabed.pits):]
+    after_truth = {rid: reef_truth(r, after.seabed, origin) for rid, r in a.items()}
+    feet = {rid: np.asarray(t["outline"]) for rid, t in after_truth.items()} if dug else {}
     out = []
     for rid in sorted(set(b) | set(a)):
         if rid not in a:
             out.append({"id": rid, "status": "removed"})
             continue
-        ta = reef_truth(a[rid], after.seabed, origin)
+        ta = after_truth[rid]
         if rid not in b:
             out.append({"id": rid, "status": "new", "x_after": ta["x"], "y_after": ta["y"],
                         "height_after": ta["height"]})
@@ -338,21 +340,24 @@ def _true_changes(before: Scene, after: Scene, changes: Sequence[Change], origin
                     "tilt_after": a[rid].tilt_deg,
                     "overturned_before": b[rid].orientation != "upright",
                     "overturned_after": a[rid].orientation != "upright",
-                    **scour_truth(dug, ta, (a[rid].x, a[rid].y), origin)})
+                    **scour_truth(dug, ta, (a[rid].x, a[rid].y), origin,
+                                  [f for k, f in feet.items() if k != rid])})
     return out
 
 
 def scour_truth(pits: Sequence[tuple[float, float, float, float]], reef: Mapping[str, Any],
-                centre: tuple[float, float], origin: tuple[float, float]) -> dict[str, float]:
+                centre: tuple[float, float], origin: tuple[float, float],
+                others: Sequence[np.ndarray] = ()) -> dict[str, float]:
     """The scour the scene's ``pits`` (local coordinates, as the seabed holds them) leave
     round a reef centred at local ``centre``, outside its footprint (``reef``: its truth
-    record, in the survey's coordinates) grown by :data:`mbinspect.scour.FOOT_MARGIN`,
-    read as :func:`mbinspect.scour.pit_scour` reads them: depth, radius and volume (m³)."""
+    record, in the survey's coordinates) and the ``others``' footprints, each grown by
+    :data:`mbinspect.scour.FOOT_MARGIN`, read as :func:`mbinspect.scour.pit_scour` reads
+    them: depth, radius and volume (m³)."""
     from ..scour import pit_scour
 
     ox, oy = origin
     return pit_scour([(x + ox, y + oy, d, r) for x, y, d, r in pits], np.asarray(reef["outline"]),
-                     (centre[0] + ox, centre[1] + oy))
+                     (centre[0] + ox, centre[1] + oy), others=others)
 
 
 def random_pile_changes(truth: Mapping[str, Any], *, seed: int, share: float = 0.5) -> tuple[Change, ...]:
