@@ -153,7 +153,7 @@ def _unlevelled(before: Mapping[str, Any] | None, after: Mapping[str, Any] | Non
     """A warning for each survey whose lines could not be levelled: its soundings carry no line."""
     if not level:
         return []
-    return [f"the {which} survey's soundings carry no line (ASCII): its lines were not "
+    return [f"the {which} survey's soundings carry no line (an ASCII export, say): its lines were not "
             "levelled against each other, and a step between them can pass for a plan shift on a smooth "
             "seabed; a format that keeps lines (LAS/LAZ, the sonars' own) avoids it"
             for which, f in (("before", before), ("after", after))
