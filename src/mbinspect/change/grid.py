@@ -93,13 +93,8 @@ def median_grid(points: np.ndarray, x0: float, y0: float, shape: tuple[int, int]
     i, j = cell_index(points, x0, y0, cell)
     inside = (i >= 0) & (j >= 0) & (i < nx) & (j < ny)
     flat = (j[inside].astype(np.int64) * nx + i[inside])
-    zs = np.asarray(points[inside, 2], np.float64)
-    order = np.lexsort((zs, flat))
-    flat, zs = flat[order], zs[order]
-    cells, start, count = np.unique(flat, return_index=True, return_counts=True)
-    lo = start + (count - 1) // 2
-    hi = start + count // 2
-    med = (zs[lo] + zs[hi]) / 2 if len(zs) else np.zeros(0)
+    cells, med, count, order = _key_medians(np.asarray(points[inside, 2], np.float64), flat)
+    flat = flat[order]
     keep = count >= min_count
     z.ravel()[cells[keep]] = med[keep]
     n.ravel()[cells] = count
@@ -155,10 +150,7 @@ def line_levels(points: np.ndarray, line: np.ndarray, cell: float = 1.0, *, iter
     x0, y0 = float(pts[:, 0].min()), float(pts[:, 1].min())
     i, j = cell_index(pts, x0, y0, cell)
     key = (j.astype(np.int64) * (int(i.max()) + 1) + i) * nl + li
-    order = np.lexsort((pts[:, 2], key))
-    k, z = key[order], pts[order, 2]
-    keys, start, count = np.unique(k, return_index=True, return_counts=True)
-    med = (z[start + (count - 1) // 2] + z[start + count // 2]) / 2
+    keys, med, count, _ = _key_medians(pts[:, 2], key)
     ok = count >= 3
     keys, med = keys[ok], med[ok]
     c, ln = keys // nl, keys % nl
@@ -220,11 +212,18 @@ def ping_levels(points: np.ndarray, line: np.ndarray, ping: np.ndarray, cell: fl
 
 def _group_medians(values: np.ndarray, key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each value's group median and group size, per value (groups by ``key``)."""
-    order = np.lexsort((values, key))
-    k, v = key[order], values[order]
-    _, start, count = np.unique(k, return_index=True, return_counts=True)
-    med = (v[start + (count - 1) // 2] + v[start + count // 2]) / 2
-    group = np.repeat(np.arange(len(start)), count)
+    _, med, count, order = _key_medians(values, key)
+    group = np.repeat(np.arange(len(med)), count)
     out_med, out_n = np.empty(len(values)), np.empty(len(values), np.int64)
     out_med[order], out_n[order] = med[group], count[group]
     return out_med, out_n
+
+
+def _key_medians(values: np.ndarray, key: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The distinct keys, each one's median of ``values`` (the mean of the two middle ones
+    where they are even in number) and count, and the order that sorts by key then value."""
+    order = np.lexsort((values, key))
+    v = values[order]
+    keys, start, count = np.unique(key[order], return_index=True, return_counts=True)
+    med = (v[start + (count - 1) // 2] + v[start + count // 2]) / 2 if len(v) else np.zeros(0)
+    return keys, med, count, order
