@@ -88,7 +88,7 @@ def test_the_cli_compares_piles_from_a_tiled_laz_result_and_an_ascii_one(jacket,
                  str(root / "site.gpkg"), "--out", str(root / "ch")]) == 0
     out = capsys.readouterr()
     printed = out.out
-    assert "after survey's soundings carry no line (ASCII)" in out.err  # the LAZ side has lines
+    assert "after survey's soundings carry no line (an ASCII export" in out.err  # the LAZ side has lines
     assert "before survey's soundings carry no line" not in out.err
     assert "pile 1 (after: 1): settled" in printed and "pile 3 (after: 3): scoured" in printed
     d = json.loads((root / "ch" / "change.json").read_text())
