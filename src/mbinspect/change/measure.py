@@ -66,16 +66,17 @@ def null_scour(diff: Grid, noise: MapNoise, radius: float, *, reach: float) -> t
     >>> n >= 20 and 0.0 < q < 0.01
     True
     """
-    x, y = diff.centres()
-    span_x, span_y = float(x.max() - x.min()), float(y.max() - y.min())
+    ny, nx = diff.z.shape
+    x_min, y_min = diff.x0 + diff.cell / 2, diff.y0 + diff.cell / 2
+    span_x, span_y = (nx - 1) * diff.cell, (ny - 1) * diff.cell
     step = max(reach, math.sqrt(span_x * span_y / 300.0))  # at most about 300 centres
     t = np.linspace(0, 2 * np.pi, 16, endpoint=False)
     ring = radius * np.column_stack([np.sin(t), np.cos(t)])
     depths = []
-    for cx in float(x.min()) + step / 2 + np.arange(max(int(span_x // step), 0)) * step:
-        for cy in float(y.min()) + step / 2 + np.arange(max(int(span_y // step), 0)) * step:
-            near = np.hypot(x - cx, y - cy) <= reach + 2.0
-            if np.isfinite(diff.z[near]).mean() < 0.6:
+    for cx in x_min + step / 2 + np.arange(max(int(span_x // step), 0)) * step:
+        for cy in y_min + step / 2 + np.arange(max(int(span_y // step), 0)) * step:
+            wx, wy, wz = _window(diff, (cx, cy), reach + 2.0)
+            if np.isfinite(wz[np.hypot(wx - cx, wy - cy) <= reach + 2.0]).mean() < 0.6:
                 continue
             d = scour_of(diff, noise, (cx, cy), [ring + (cx, cy)], reach=reach)["scour_depth"]
             if math.isfinite(d):
@@ -168,7 +169,7 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     seabed 2 m beyond ``reach``, read by :func:`mbinspect.scour.scour_rings`, each with its
     level of detection from the map's ``noise`` (cells within its area sharing their
     errors)."""
-    x, y = diff.centres()
+    x, y, z = _window(diff, centre, reach + 2.0)
     dist = np.hypot(x - centre[0], y - centre[1])
     near = dist <= reach + 2.0
     pts = np.column_stack([x[near], y[near]])
@@ -176,7 +177,7 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     for poly in outlines:
         if len(poly) >= 3:
             inside |= points_in_polygon(pts, grown(poly))
-    d, diffs = dist[near][~inside], diff.z[near][~inside]
+    d, diffs = dist[near][~inside], z[near][~inside]
     ref_cells = (d > reach) & np.isfinite(diffs)
     nan = dict.fromkeys(SCOUR_KEYS, math.nan)
     if ref_cells.sum() < 8:
@@ -196,6 +197,21 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
             "scour_radius": s.radius if found else math.nan,
             "scour_radius_lod95": 2 * RING if found else math.nan,
             "scour_volume": s.volume, "scour_volume_lod95": vol_lod}
+
+
+def _window(g: Grid, centre: tuple[float, float], r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The centres (x, y) and values of the grid's cells within the square of half-side
+    ``r`` round ``centre`` (and a cell beyond), each shaped alike."""
+    ny, nx = g.z.shape
+
+    def span(lo: float, hi: float, origin: float, n: int) -> tuple[int, int]:
+        return (min(max(int((lo - origin) // g.cell) - 1, 0), n),
+                min(max(int((hi - origin) // g.cell) + 2, 0), n))
+
+    i0, i1 = span(centre[0] - r, centre[0] + r, g.x0, nx)
+    j0, j1 = span(centre[1] - r, centre[1] + r, g.y0, ny)
+    x, y = np.meshgrid(g.x0 + (np.arange(i0, i1) + 0.5) * g.cell, g.y0 + (np.arange(j0, j1) + 0.5) * g.cell)
+    return x, y, g.z[j0:j1, i0:i1]
 
 
 def _num(v: Any) -> float:
