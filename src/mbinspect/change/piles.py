@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry import bearing_to_vector, convex_hull, tilted_section
 from ..piles.results import PileFit
 from .grid import Grid
 from .measure import R95, SCOUR_KEYS, Z95, MapNoise, scour_of
@@ -43,17 +44,11 @@ def pile_footprint(p: PileFit, height: float, points: int = 24) -> tuple[np.ndar
     top = pile_outline(p, points)
     if p.tilt_deg is None or p.tilt_azimuth_deg is None or not math.isfinite(height) or p.tilt_deg < 0.5:
         return top, (p.x, p.y)
-    from scipy.spatial import ConvexHull
-
     t = math.radians(p.tilt_deg)
-    u = np.array([math.sin(math.radians(p.tilt_azimuth_deg)), math.cos(math.radians(p.tilt_azimuth_deg))])
+    u = bearing_to_vector(p.tilt_azimuth_deg)
     foot = (float(p.x - height * math.tan(t) * u[0]), float(p.y - height * math.tan(t) * u[1]))
-    a = np.linspace(0, 2 * math.pi, points, endpoint=False)
-    along, across = p.radius / math.cos(t) * np.cos(a), p.radius * np.sin(a)
-    section = np.column_stack([foot[0] + along * u[0] + across * u[1],
-                               foot[1] + along * u[1] - across * u[0]])
-    both = np.vstack([top, section])
-    return both[ConvexHull(both).vertices], foot
+    section = tilted_section(foot, p.radius, p.tilt_deg, p.tilt_azimuth_deg, points)
+    return convex_hull(np.vstack([top, section])), foot
 
 
 def exposed_height(p: PileFit, seabed: Grid, xy: tuple[float, float] | None = None) -> float:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..geometry import bearing_to_vector
+from ..geometry import bearing_to_vector, tilted_section
 from .scene import Pile, Scene
 
 __all__ = ["changed_piles", "true_pile_changes", "check_pile_change"]
@@ -60,16 +60,6 @@ def _foot(p: Pile, seabed_z: float) -> tuple[float, float]:
     return float(foot[0]), float(foot[1])
 
 
-def _section(p: Pile, centre: tuple[float, float], points: int = 48) -> np.ndarray:
-    """The pile's horizontal section about ``centre``: an ellipse, the radius stretched by
-    1/cos(tilt) toward its lean."""
-    t = np.linspace(0, 2 * math.pi, points, endpoint=False)
-    u = bearing_to_vector(p.tilt_bearing_deg)
-    along, across = p.radius / math.cos(math.radians(p.tilt_deg)) * np.cos(t), p.radius * np.sin(t)
-    return np.column_stack([centre[0] + along * u[0] + across * u[1],
-                            centre[1] + along * u[1] - across * u[0]])
-
-
 def _moved(p: Pile, c: Any, seabed_z: float) -> Pile:
     """The pile driven ``settlement`` deeper along its axis and leaning as ``c`` says, turned
     about the point where its axis meets the seabed."""
@@ -97,7 +87,8 @@ def true_pile_changes(before: Scene, after: Scene, changes: Sequence[Any], origi
     dug = [(x + origin[0], y + origin[1], d, r) for x, y, d, r in after.seabed.pits[len(before.seabed.pits):]]
     feet = [(x + origin[0], y + origin[1]) for x, y in
             (_foot(p, float(after.seabed.elevation(p.x, p.y))) for p in after.piles)]
-    sections = [_section(p, f) for p, f in zip(after.piles, feet, strict=True)]
+    sections = [tilted_section(f, p.radius, p.tilt_deg, p.tilt_bearing_deg, 48)
+                for p, f in zip(after.piles, feet, strict=True)]
     out = []
     for i, (pb, pa) in enumerate(zip(before.piles, after.piles, strict=True)):
         dx, dy = pa.x - pb.x, pa.y - pb.y
