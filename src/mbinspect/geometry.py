@@ -111,20 +111,15 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
 
 def tilted_section(centre: tuple[float, float], radius: float, tilt_deg: float, bearing_deg: float,
                    points: int = 24) -> np.ndarray:
-    """A cylinder's horizontal section round ``centre``: an ellipse, the ``radius``
-    stretched by 1/cos(tilt) toward the bearing its axis leans to, shape (points, 2).
+    """A cylinder's horizontal section round ``centre``: an ellipse, ``radius`` stretched by
+    1/cos(tilt) toward the bearing its axis leans to, shape (points, 2).
 
-    Examples
-    --------
-    >>> e = tilted_section((0.0, 0.0), 1.0, 60.0, 90.0, points=4)
-    >>> (np.round(e, 3) + 0.0).tolist()
+    >>> (tilted_section((0.0, 0.0), 1.0, 60.0, 90.0, points=4).round(3) + 0.0).tolist()
     [[2.0, 0.0], [0.0, -1.0], [-2.0, 0.0], [0.0, 1.0]]
     """
-    t = np.linspace(0, 2 * math.pi, points, endpoint=False)
-    u = bearing_to_vector(bearing_deg)
+    t, (ux, uy) = np.linspace(0, 2 * math.pi, points, endpoint=False), bearing_to_vector(bearing_deg)
     along, across = radius / math.cos(math.radians(tilt_deg)) * np.cos(t), radius * np.sin(t)
-    return np.column_stack([centre[0] + along * u[0] + across * u[1],
-                            centre[1] + along * u[1] - across * u[0]])
+    return np.column_stack([centre[0] + along * ux + across * uy, centre[1] + along * uy - across * ux])
 
 
 def polygon_area(poly: np.ndarray) -> float:
