@@ -44,8 +44,8 @@ class ChangeOptions(Options):
         help="where beam angles are known, soundings farther off nadir are left out of the registration "
              "(a line's sound-speed error bends its outer beams), unless that leaves the plan shift half "
              "again as uncertain as every beam does; 90 reads every beam")
-    level_lines: bool = option(True, help="where lines are known, level each survey's lines against each "
-                                          "other before gridding (a tide or draft error leaves steps "
-                                          "between lines)")
+    level_lines: bool = option(True, help="where pings and lines are known, level each survey's pings "
+                                          "against the others of their line, then its lines against each "
+                                          "other, before gridding (heave, tide or draft errors leave steps)")
     rotation: bool = option(True, help="estimate a small rotation between the surveys where the seabed "
                                        "holds it")
