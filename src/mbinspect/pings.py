@@ -3,8 +3,6 @@ ping numbers, estimated from the soundings' order."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .errors import InputError
@@ -57,21 +55,42 @@ def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, 
     pts = np.asarray(points, float)
     origins = np.full_like(pts, np.nan)
     axes = np.full_like(pts, np.nan)
+    if len(pts) == 0:
+        return origins, axes, np.zeros(0, bool)
     tan = np.tan(np.radians(np.clip(beam_angle, -85, 85)))
-    order = np.argsort(ping, kind="stable")
-    bounds = np.flatnonzero(np.diff(ping[order])) + 1
-    for rows in np.split(order, bounds):
-        if len(rows) < min_beams or np.ptp(beam_angle[rows]) < 10:
-            continue
-        a = np.column_stack([np.ones(len(rows)), tan[rows]])
-        (x0, sx), *_ = np.linalg.lstsq(a, pts[rows, 0], rcond=None)
-        (y0, sy), *_ = np.linalg.lstsq(a, pts[rows, 1], rcond=None)
-        h = math.hypot(sx, sy)
-        if not h > 0:
-            continue
-        near = rows[np.argsort(np.abs(tan[rows]))[:3]]
-        origins[rows] = [x0, y0, float(np.median(pts[near, 2])) + h]
-        axes[rows] = [sx / h, sy / h, 0.0]
+    _, inv = np.unique(ping, return_inverse=True)
+    inv = inv.ravel()
+    n = np.bincount(inv).astype(float)
+    ang = np.asarray(beam_angle, float)
+    spread = np.full(len(n), -np.inf)
+    np.maximum.at(spread, inv, ang)
+    low = np.full(len(n), np.inf)
+    np.minimum.at(low, inv, ang)
+    usable = (n >= min_beams) & (spread - low >= 10)
+    # each ping's straight line x = x0 + sx tan, y = y0 + sy tan, by least squares in closed form
+    st, stt = np.bincount(inv, tan), np.bincount(inv, tan * tan)
+    den = n * stt - st * st
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fit = []
+        for col in (pts[:, 0], pts[:, 1]):
+            # centred on each ping's mean so that eastings of 10^5 m lose no precision
+            mean = np.bincount(inv, col) / n
+            c = col - mean[inv]
+            slope = (n * np.bincount(inv, tan * c) - st * np.bincount(inv, c)) / den
+            fit.append((mean + (np.bincount(inv, c) - slope * st) / n, slope))
+    (x0, sx), (y0, sy) = fit
+    h = np.hypot(sx, sy)
+    usable &= h > 0
+    # the height from the three soundings nearest nadir (their median)
+    order = np.lexsort((np.abs(tan), inv))
+    first = np.searchsorted(inv[order], np.arange(len(n)))
+    mid = order[np.minimum(first + np.where(n >= 3, 1, 0), len(order) - 1)]
+    trio = np.sort(np.stack([pts[order[np.minimum(first + k, len(order) - 1)], 2] for k in range(3)]), axis=0)
+    z_near = np.where(n >= 3, trio[1], pts[mid, 2])
+    good = usable[inv]
+    origins[good] = np.column_stack([x0, y0, z_near + h])[inv[good]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        axes[good] = np.column_stack([sx / h, sy / h, np.zeros(len(n))])[inv[good]]
     return origins, axes, np.isfinite(origins[:, 0])
 
 

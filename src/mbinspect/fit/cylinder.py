@@ -4,6 +4,7 @@ effects by ping, a cluster-robust covariance) and MSAC with a known radius."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -145,10 +146,13 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         s = d @ a
         return w * (np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)) - r)
 
+    def jac(q: np.ndarray) -> np.ndarray:
+        return _jacobian(rel, q, unpack, w, plumb=plumb, fixed_r=fixed_r)
+
     x0 = [p0[0] - centre[0], p0[1] - centre[1]] + ([] if plumb else [a0[0] / a0[2], a0[1] / a0[2]])
     if not fixed_r:
         x0.append(start.radius)
-    sol = least_squares(resid, np.array(x0), loss=loss, f_scale=f_scale, x_scale=0.01)
+    sol = least_squares(resid, np.array(x0), jac=jac, loss=loss, f_scale=f_scale, x_scale=0.01)
     shrink = _random_effects(sol.fun, groups) if groups is not None and random_effects else None
     if shrink is not None:
         inv, c_g = shrink
@@ -158,7 +162,12 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
             r = resid(q)
             return r - c_g[inv] * (np.bincount(inv, weights=r) / n_g)[inv]
 
-        sol = least_squares(resid_gls, sol.x, loss=loss, f_scale=f_scale, x_scale=0.01)
+        def jac_gls(q: np.ndarray) -> np.ndarray:
+            j = jac(q)
+            means = np.stack([np.bincount(inv, weights=col) for col in j.T], axis=1) / n_g[:, None]
+            return j - c_g[inv, None] * means[inv]
+
+        sol = least_squares(resid_gls, sol.x, jac=jac_gls, loss=loss, f_scale=f_scale, x_scale=0.01)
     c, a, r = unpack(sol.x)
     cov = _sandwich(sol.jac, sol.fun, groups)
     if plumb:  # the layout of a free axis, its slopes held
@@ -167,6 +176,22 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         full[np.ix_(keep, keep)] = cov
         cov = full
     return Cylinder(c + shift, a, r), cov
+
+
+def _jacobian(rel: np.ndarray, q: np.ndarray, unpack: Any, w: Any, *, plumb: bool, fixed_r: bool
+              ) -> np.ndarray:
+    """The point-to-cylinder distances' derivatives with respect to (x, y[, ax, ay][, r])."""
+    c, a, _ = unpack(q)
+    d = rel - c
+    s = d @ a
+    rho = np.maximum(np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)), 1e-12)
+    cols = [(-d[:, 0] + s * a[0]) / rho, (-d[:, 1] + s * a[1]) / rho]
+    if not plumb:
+        norm = math.sqrt(q[2] ** 2 + q[3] ** 2 + 1.0)
+        cols += [-s * (d[:, 0] - s * a[0]) / (norm * rho), -s * (d[:, 1] - s * a[1]) / (norm * rho)]
+    if not fixed_r:
+        cols.append(np.full(len(d), -1.0))
+    return np.column_stack(cols) * (np.ones(len(d)) * w)[:, None]
 
 
 def _random_effects(res: np.ndarray, groups: np.ndarray, discount: float = 0.25

@@ -1,0 +1,183 @@
+"""Candidate line layouts round a structure, generated from its design, and their time on site.
+
+A structure's frame is the minimum-area rectangle of its pile (or unit) centres: ``u`` along
+its long side, ``v`` across. Lines run along ``u`` or ``v``, outside the structure at an
+offset from its outer row, or over a row of tops; each family is sailed one way (lines
+alternate their heading, as a boat sails a racetrack) or both ways.
+
+Examples
+--------
+>>> f = structure_frame(np.array([[0.0, 0.0], [22.0, 0.0], [0.0, 22.0], [22.0, 22.0]]), radius=0.75)
+>>> round(f.half_u, 1), round(f.half_v, 1), len(f.rows), len(f.columns)
+(11.0, 11.0, 2, 2)
+>>> names = [c.name for c in candidates(f, offsets=(12.5,), margin=20.0)]
+>>> "hash-12.5" in names and "hash-12.5+tops" in names
+True
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..geometry import bearing_to_vector, min_area_rectangle, vector_to_bearing
+
+__all__ = ["Frame", "Layout", "PlanLine", "candidates", "offsets_for", "structure_frame", "with_both_ways"]
+
+
+@dataclass(frozen=True)
+class PlanLine:
+    """A straight survey line from ``start`` to ``end`` (x, y in the design's CRS, m)."""
+
+    start: tuple[float, float]
+    end: tuple[float, float]
+
+    @property
+    def length(self) -> float:
+        return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1])
+
+    @property
+    def heading(self) -> float:
+        """Bearing sailed, degrees clockwise from grid north."""
+        return vector_to_bearing(np.subtract(self.end, self.start))
+
+    def reversed(self) -> PlanLine:
+        return PlanLine(self.end, self.start)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"x_start": self.start[0], "y_start": self.start[1], "x_end": self.end[0],
+                "y_end": self.end[1], "heading": self.heading, "length": self.length}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PlanLine:
+        return cls((float(d["x_start"]), float(d["y_start"])), (float(d["x_end"]), float(d["y_end"])))
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A candidate: its name, what it is in words, and its lines in the order sailed."""
+
+    name: str
+    description: str
+    lines: tuple[PlanLine, ...]
+
+    def time_on_site(self, speed: float, turn_s: float) -> float:
+        """Seconds on site: every line at ``speed`` (m/s) and a turn of ``turn_s`` between lines."""
+        return sum(line.length for line in self.lines) / speed + turn_s * max(len(self.lines) - 1, 0)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A structure's frame: centre, unit axes ``u`` (long side) and ``v``, half extents of the
+    centres along each, and the rows (``v`` of each row along ``u``) and columns (``u`` of each)."""
+
+    centre: tuple[float, float]
+    u: tuple[float, float]
+    v: tuple[float, float]
+    half_u: float
+    half_v: float
+    rows: tuple[float, ...]
+    columns: tuple[float, ...]
+
+    def point(self, a: float, b: float) -> tuple[float, float]:
+        """The world point ``a`` along ``u`` and ``b`` along ``v`` from the centre."""
+        return (self.centre[0] + a * self.u[0] + b * self.v[0],
+                self.centre[1] + a * self.u[1] + b * self.v[1])
+
+
+def _clusters(values: np.ndarray, gap: float) -> tuple[float, ...]:
+    """Means of the runs of sorted values no more than ``gap`` apart."""
+    s = np.sort(values)
+    cuts = np.flatnonzero(np.diff(s) > gap) + 1
+    return tuple(float(np.mean(part)) for part in np.split(s, cuts))
+
+
+def structure_frame(xy: np.ndarray, *, radius: float) -> Frame:
+    """The frame of the centres ``xy`` (N, 2): rows and columns gather centres within a
+    pile's diameter and a metre of each other."""
+    xy = np.asarray(xy, np.float64)
+    rect = min_area_rectangle(xy) if len(xy) > 1 else None
+    bearing = rect.bearing_deg if rect is not None and rect.length > 0 else 90.0
+    u = bearing_to_vector(bearing)
+    v = np.array([-u[1], u[0]])
+    c = np.array([rect.cx, rect.cy]) if rect is not None else xy[0]
+    a, b = (xy - c) @ u, (xy - c) @ v
+    gap = 2 * radius + 1.0
+    return Frame((float(c[0]), float(c[1])), (float(u[0]), float(u[1])), (float(v[0]), float(v[1])),
+                 float(np.abs(a).max()), float(np.abs(b).max()), _clusters(b, gap), _clusters(a, gap))
+
+
+def offsets_for(top_depth: float, max_angle_deg: float) -> tuple[float, ...]:
+    """Offsets (m) of lines outside the outer row: 0.3 and 0.5 of the distance at which a pile
+    top ``top_depth`` m below the transducer is seen at the swath's edge, to 0.5 m (farther
+    lines see the far row's faces past the swath's edge only)."""
+    reach = top_depth * math.tan(math.radians(max_angle_deg))
+    return tuple(sorted({max(round(f * reach * 2) / 2, 1.0) for f in (0.3, 0.5)}))
+
+
+def _along(f: Frame, b: float, margin: float, forward: bool) -> PlanLine:
+    line = PlanLine(f.point(-f.half_u - margin, b), f.point(f.half_u + margin, b))
+    return line if forward else line.reversed()
+
+
+def _across(f: Frame, a: float, margin: float, forward: bool) -> PlanLine:
+    line = PlanLine(f.point(a, -f.half_v - margin), f.point(a, f.half_v + margin))
+    return line if forward else line.reversed()
+
+
+def _racetrack(lines: Sequence[PlanLine]) -> tuple[PlanLine, ...]:
+    """The lines with every other one reversed, so that each starts near where the last ended."""
+    out: list[PlanLine] = []
+    for line in lines:
+        if out:
+            end = out[-1].end
+            d_keep = math.dist(end, line.start)
+            d_flip = math.dist(end, line.end)
+            line = line if d_keep <= d_flip else line.reversed()
+        out.append(line)
+    return tuple(out)
+
+
+def _square(f: Frame) -> bool:
+    """As many rows as columns and the same extent both ways (within a metre)."""
+    return len(f.rows) == len(f.columns) and abs(f.half_u - f.half_v) < 1.0
+
+
+def candidates(f: Frame, *, offsets: Sequence[float], margin: float) -> list[Layout]:
+    """Every candidate sailed one way: for each offset, a pair of lines along the structure
+    (``along``), a pair across it (``across``), both (the '#' of the pile paper, ``hash``) and
+    the '#' with lines over the rows of tops (``+tops``); and lines over the tops alone
+    (``tops``, and ``tops-grid`` over the columns too)."""
+    tops_u = [_along(f, b, margin, True) for b in f.rows]
+    tops_v = [_across(f, a, margin, True) for a in f.columns]
+    out = [Layout("tops", f"{len(tops_u)} lines over the rows of tops, along the structure",
+                  _racetrack(tops_u))]
+    if len(f.columns) > 1 and len(f.rows) > 1:
+        out.append(Layout("tops-grid", f"{len(tops_u) + len(tops_v)} lines over the rows and columns of tops",
+                          _racetrack(tops_u + tops_v)))
+    for o in offsets:
+        along = [_along(f, -f.half_v - o, margin, True), _along(f, f.half_v + o, margin, False)]
+        across = [_across(f, -f.half_u - o, margin, True), _across(f, f.half_u + o, margin, False)]
+        out.append(Layout(f"along-{o:g}", f"2 lines along the structure, {o:g} m outside its outer rows",
+                          _racetrack(along)))
+        if not _square(f):  # across a square structure is along it turned
+            out.append(Layout(f"across-{o:g}", f"2 lines across the structure, {o:g} m outside its end "
+                              "columns", _racetrack(across)))
+        out += [
+            Layout(f"hash-{o:g}", f"the '#': 4 lines {o:g} m outside the piles", _racetrack(along + across)),
+            Layout(f"hash-{o:g}+tops", f"the '#' at {o:g} m and {len(tops_u)} lines over the rows of tops",
+                   _racetrack(along + across + tops_u)),
+        ]
+    return out
+
+
+def with_both_ways(layout: Layout) -> Layout:
+    """The layout with every line sailed a second time on the reciprocal heading."""
+    lines: list[PlanLine] = []
+    for line in layout.lines:
+        lines += [line, line.reversed()]
+    return Layout(layout.name + "x2", layout.description + ", each line sailed both ways", tuple(lines))

@@ -1,0 +1,236 @@
+""":func:`plan_survey`: the candidate layouts round a design, each surveyed a few times in the
+simulator, and the one that meets the target in the least time on site."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+from ..piles import Design, read_design
+from ..simulate import named_sonar
+from ..version import __version__
+from .layouts import Layout, candidates, offsets_for, structure_frame, with_both_ways
+from .options import KNOT, SOUND_SPEED, PlanOptions
+from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
+from .results import PlanResult, PredictedSpacing, Prediction
+
+__all__ = ["plan_survey", "design_piles", "ping_rate"]
+
+#: A side with fewer soundings than this per survey counts as one no beam reaches.
+SEEN_MIN = 5
+
+#: Layouts sailed both ways are tried for this many of the best one-way layouts when none of
+#: those meets the target.
+BOTH_WAYS = 2
+
+
+def design_piles(design: Design, options: PlanOptions) -> tuple[DesignPile, ...]:
+    """The design's piles with their top levels (the design's ``top``, else the seabed plus
+    ``height``)."""
+    if not design.positions:
+        raise InputError(f"{design.source or 'design'}: gives spacings only; expected pile positions "
+                         "(id,x,y[,group][,top]) to plan lines round")
+    seabed = -options.depth
+    piles = []
+    for i, (x, y) in sorted(design.positions.items()):
+        top = design.tops.get(i)
+        if top is None:
+            if options.height is None:
+                raise ParameterError(f"height: missing; expected how far pile {i}'s top stands above the "
+                                     "seabed (--height), as the design gives no top", option="height")
+            top = seabed + options.height
+        if top <= seabed + 0.2:
+            raise ParameterError(f"depth: pile {i}'s top at {top:g} m is not above the seabed at "
+                                 f"{seabed:g} m; expected tops above the seabed (depth is positive, down)",
+                                 option="depth")
+        piles.append(DesignPile(int(i), float(x), float(y), float(top), int(design.groups.get(i, 1))))
+    return tuple(piles)
+
+
+def ping_rate(options: PlanOptions) -> float:
+    """Pings a second: the sonar's highest rate, or the two-way travel time to the swath's
+    edge on the seabed, whichever is slower."""
+    slant = options.depth / math.cos(math.radians(options.max_angle))
+    return min(options.max_ping_rate, SOUND_SPEED / (2.0 * slant))
+
+
+def _run_jobs(jobs: list[tuple[Layout, tuple[DesignPile, ...], Setting, int]], workers: int,
+              progress: Callable[[float], None] | None, done: list[int], total: int) -> list[Trial]:
+    """Every trial, in ``workers`` processes when more than one."""
+    def tick() -> None:
+        done[0] += 1
+        if progress is not None:
+            progress(min(done[0] / total, 1.0))
+
+    if workers <= 1 or len(jobs) <= 1:
+        out = []
+        for job in jobs:
+            out.append(run_trial(*job))
+            tick()
+        return out
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(min(workers, len(jobs))) as pool:
+        futures = [pool.submit(run_trial, *job) for job in jobs]
+        out = []
+        for f in futures:
+            out.append(f.result())
+            tick()
+        return out
+
+
+def _rms(values: Sequence[float]) -> float:
+    v = np.asarray([x for x in values if math.isfinite(x)], float)
+    return float(np.sqrt(np.mean(v**2))) if len(v) else math.nan
+
+
+#: Pseudo-surveys of a calibrated 1-sigma (errors the size of the sigma) that temper the
+#: calibration a few trials show.
+PRIOR = 6
+
+
+def _predict(layout: Layout, trials: list[Trial], piles: tuple[DesignPile, ...], options: PlanOptions,
+             speed: float) -> Prediction:
+    """A layout's prediction from its trials: each spacing's 1-sigma is the RMS of the 1-sigma
+    the runs reported (what a run of these lines will report), raised by the factor their
+    errors against the truth show it too small, pooled over every spacing and trial and
+    tempered by :data:`PRIOR`; a spacing some run did not measure is unmeasured (inf)."""
+    by_id = {p.id: p for p in piles}
+    rows_of = {ab: [s for t in trials for s in t.spacings if (s[0], s[1]) == ab] for ab in pairs_of(piles)}
+    z2 = [(r[2] / r[3]) ** 2 for rows in rows_of.values() for r in rows if r[3] > 0 and math.isfinite(r[3])]
+    factor = max(1.0, math.sqrt((sum(z2) + PRIOR) / (len(z2) + PRIOR)))
+    spacings = []
+    for (a, b), rows in rows_of.items():
+        reported, err = _rms([r[3] for r in rows]), _rms([r[2] for r in rows])
+        sigma = reported * factor if len(rows) == len(trials) and rows else math.inf
+        spacings.append(PredictedSpacing(a, b, math.hypot(by_id[a].x - by_id[b].x, by_id[a].y - by_id[b].y),
+                                         sigma, reported, err, len(rows)))
+    tops = []
+    for p in piles:
+        levels = [r for t in trials for r in t.tops if r[0] == p.id]
+        whole = len(levels) == len(trials) and levels
+        tops.append((p.id, _rms([r[2] for r in levels]) if whole else math.inf))
+    unseen = []
+    for p in piles:
+        counts = np.sum([dict(t.sectors)[p.id] for t in trials], axis=0) / max(len(trials), 1)
+        unseen.append((p.id, tuple(SECTORS[k] for k in range(8) if counts[k] < SEEN_MIN)))
+    missed = tuple((p.id, sum(p.id in t.missed for t in trials) / len(trials)) for p in piles)
+    meets = (bool(spacings) and len(trials) >= options.seeds
+             and all(s.sigma <= options.target_sigma for s in spacings))
+    return Prediction(layout, layout.time_on_site(speed, options.turn_s), tuple(spacings), tuple(tops),
+                      tuple(unseen), missed, meets, len(trials), factor)
+
+
+#: A layout whose one-survey prediction is worse than this many times the target is not
+#: surveyed again (one survey's 1-sigma is rough, but not by half).
+SCREEN = 1.5
+
+
+@dataclasses.dataclass
+class _Search:
+    """The trials run so far, by layout, and what every prediction shares."""
+
+    piles: tuple[DesignPile, ...]
+    setting: Setting
+    options: PlanOptions
+    progress: Callable[[float], None] | None
+    total: int
+    done: list[int] = dataclasses.field(default_factory=lambda: [0])
+    layouts: dict[str, Layout] = dataclasses.field(default_factory=dict)
+    trials: dict[str, list[Trial]] = dataclasses.field(default_factory=dict)
+
+    def run(self, layouts: list[Layout], seeds: list[int]) -> None:
+        jobs = [(lay, self.piles, self.setting, s) for lay in layouts for s in seeds]
+        for lay in layouts:
+            self.layouts[lay.name] = lay
+            self.trials.setdefault(lay.name, [])
+        for t in _run_jobs(jobs, self.options.workers, self.progress, self.done, self.total):
+            self.trials[t.layout].append(t)
+
+    def prediction(self, name: str) -> Prediction:
+        return _predict(self.layouts[name], self.trials[name], self.piles, self.options,
+                        self.options.speed * KNOT)
+
+    def screen_then_confirm(self, layouts: list[Layout]) -> Prediction | None:
+        """Each layout surveyed once; those not far from the target, fastest first, surveyed
+        ``seeds`` times in all until one meets it (that one, else None)."""
+        seeds = [self.options.seed * 1000 + k for k in range(self.options.seeds)]
+        self.run(layouts, seeds[:1])
+        hopeful = [self.prediction(lay.name) for lay in layouts]
+        hopeful = [p for p in hopeful if p.worst_sigma <= SCREEN * self.options.target_sigma]
+        for p in sorted(hopeful, key=lambda p: (p.time_on_site_s, p.layout.name)):
+            self.run([p.layout], seeds[1:])
+            full = self.prediction(p.layout.name)
+            if full.meets_target:
+                return full
+        return None
+
+
+def plan_survey(design: Design | str | Path, options: PlanOptions | None = None, *,
+                progress: Callable[[float], None] | None = None, **overrides: Any) -> PlanResult:
+    """Plan the survey lines round a pile design.
+
+    Candidate layouts (:func:`~mbinspect.plan.layouts.candidates`) are each surveyed
+    ``seeds`` times in the simulator with the sonar's beam and error model at the ping
+    spacing the speed and ping rate give, and measured by
+    :func:`~mbinspect.piles.locate_piles`; each spacing's predicted 1-sigma is the larger
+    of the 1-sigma those runs reported and the RMS of their errors. The layout chosen meets
+    ``target_sigma`` for every spacing in the least time on site; when no one-way layout
+    does, the best two are tried sailed both ways; when still none does, the one with the
+    smallest worst spacing 1-sigma is chosen and a warning says so.
+
+    Parameters
+    ----------
+    design : Design or path-like
+        Pile positions (``id,x,y[,group][,top]``), read by :func:`~mbinspect.piles.read_design`.
+    options : PlanOptions, optional
+    progress : callable, optional
+        Called with the fraction of simulated surveys done.
+    **overrides
+        Options by name (``plan_survey("design.csv", radius=0.75, depth=21, height=5)``).
+
+    Returns
+    -------
+    PlanResult
+    """
+    opts = (options or PlanOptions.from_given(overrides)) if not (options and overrides) else \
+        options.replace(**overrides)
+    if not isinstance(design, Design):
+        design = read_design(design)
+    piles = design_piles(design, opts)
+    sonar = dataclasses.replace(named_sonar(opts.sonar), swath_deg=2.0 * opts.max_angle)
+    rate = ping_rate(opts)
+    speed = opts.speed * KNOT
+    xy = np.array([[p.x, p.y] for p in piles])
+    frame = structure_frame(xy, radius=opts.radius)
+    top_depth = -float(np.mean([p.top for p in piles])) + sonar.draft
+    offsets = opts.offset_values() or offsets_for(top_depth, opts.max_angle)
+    layouts = candidates(frame, offsets=offsets, margin=opts.margin)
+    setting = Setting(sonar, speed / rate, speed, opts.depth, opts.radius, opts.tilt_max, frame.centre)
+    search = _Search(piles, setting, opts, progress, (len(layouts) + BOTH_WAYS) * opts.seeds)
+    chosen = search.screen_then_confirm(layouts)
+    if chosen is None:  # the best few sailed both ways
+        now = [search.prediction(n) for n in search.layouts]
+        best = sorted(now, key=lambda p: (p.worst_sigma, p.time_on_site_s))[:BOTH_WAYS]
+        chosen = search.screen_then_confirm([with_both_ways(p.layout) for p in best])
+    predictions = [search.prediction(n) for n in search.layouts]
+    if progress is not None:
+        progress(1.0)
+    predictions.sort(key=lambda p: (p.time_on_site_s, p.layout.name))
+    warnings = []
+    if chosen is None:
+        full = [p for p in predictions if p.surveys == opts.seeds] or predictions
+        chosen = min(full, key=lambda p: (p.worst_sigma, p.time_on_site_s))
+        warnings.append(f"no layout meets the target of {opts.target_sigma:g} m for every spacing; the best, "
+                        f"{chosen.layout.name}, is predicted to reach {chosen.worst_sigma:.3f} m")
+    params = {**opts.to_dict(), "design": design.source, "ping_rate_hz": rate, "ping_spacing": speed / rate,
+              "speed_ms": speed, "offsets_used": list(offsets), "frame": dataclasses.asdict(frame),
+              "sonar_model": dataclasses.asdict(sonar), "version": __version__}
+    return PlanResult(piles, tuple(predictions), chosen.layout.name, opts.target_sigma, params,
+                      tuple(warnings))
