@@ -20,7 +20,7 @@ LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
          "pipeline", "beam", "pings", "datum", "design_solids")),
     (2, ("seabed", "filters", "segment", "least_depth", "scour")),
     (3, ("piles", "reefs", "simulate", "report")),
-    (4, ("pipelines", "inject", "results", "change")),
+    (4, ("pipelines", "inject", "results", "change", "plan")),
     (5, ("survey",)),
     (6, ("cli", "")),
 )

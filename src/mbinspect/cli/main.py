@@ -14,7 +14,7 @@ from typing import Any, NoReturn
 
 from ..errors import MBInspectError, NoAnswer
 from ..version import __version__
-from . import change, demo, info, inject, piles, reefs, simulate, soundings
+from . import change, demo, info, inject, piles, plan, reefs, simulate, soundings
 from .common import Parser, Reporter
 from .exits import EXIT_DATA, EXIT_IO, EXIT_PIPE, EXIT_USER
 
@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
 
-    for module in (info, simulate, inject, piles, reefs, change, demo, soundings):
+    for module in (info, simulate, inject, piles, reefs, change, plan, demo, soundings):
         module.add_parser(sub)
     return parser
 

@@ -82,6 +82,7 @@ class Frame:
     half_v: float
     rows: tuple[float, ...]
     columns: tuple[float, ...]
+    spans: tuple[tuple[float, float], ...] = ()
 
     def point(self, a: float, b: float) -> tuple[float, float]:
         """The world point ``a`` along ``u`` and ``b`` along ``v`` from the centre."""
@@ -96,9 +97,10 @@ def _clusters(values: np.ndarray, gap: float) -> tuple[float, ...]:
     return tuple(float(np.mean(part)) for part in np.split(s, cuts))
 
 
-def structure_frame(xy: np.ndarray, *, radius: float) -> Frame:
+def structure_frame(xy: np.ndarray, *, radius: float, groups: Sequence[int] | None = None) -> Frame:
     """The frame of the centres ``xy`` (N, 2): rows and columns gather centres within a
-    pile's diameter and a metre of each other."""
+    pile's diameter and a metre of each other; ``spans`` are each jacket's (``groups``)
+    extent along ``u``."""
     xy = np.asarray(xy, np.float64)
     rect = min_area_rectangle(xy) if len(xy) > 1 else None
     bearing = rect.bearing_deg if rect is not None and rect.length > 0 else 90.0
@@ -107,8 +109,11 @@ def structure_frame(xy: np.ndarray, *, radius: float) -> Frame:
     c = np.array([rect.cx, rect.cy]) if rect is not None else xy[0]
     a, b = (xy - c) @ u, (xy - c) @ v
     gap = 2 * radius + 1.0
+    g = np.zeros(len(xy), int) if groups is None else np.asarray(groups)
+    spans = tuple(sorted((float(a[g == k].min()), float(a[g == k].max())) for k in np.unique(g)))
     return Frame((float(c[0]), float(c[1])), (float(u[0]), float(u[1])), (float(v[0]), float(v[1])),
-                 float(np.abs(a).max()), float(np.abs(b).max()), _clusters(b, gap), _clusters(a, gap))
+                 float(np.abs(a).max()), float(np.abs(b).max()), _clusters(b, gap), _clusters(a, gap),
+                 spans)
 
 
 def offsets_for(top_depth: float, max_angle_deg: float) -> tuple[float, ...]:
@@ -142,6 +147,20 @@ def _racetrack(lines: Sequence[PlanLine]) -> tuple[PlanLine, ...]:
     return tuple(out)
 
 
+def _across_at(f: Frame, offset: float) -> list[float]:
+    """Where lines across the structure run: ``offset`` outside each jacket's end columns,
+    two closer than 2 m taken as one."""
+    spans = f.spans or ((-f.half_u, f.half_u),)
+    at = sorted(x for lo, hi in spans for x in (lo - offset, hi + offset))
+    out: list[float] = []
+    for x in at:
+        if out and x - out[-1] < 2.0:
+            out[-1] = (out[-1] + x) / 2
+        else:
+            out.append(x)
+    return out
+
+
 def _square(f: Frame) -> bool:
     """As many rows as columns and the same extent both ways (within a metre)."""
     return len(f.rows) == len(f.columns) and abs(f.half_u - f.half_v) < 1.0
@@ -161,14 +180,15 @@ def candidates(f: Frame, *, offsets: Sequence[float], margin: float) -> list[Lay
                           _racetrack(tops_u + tops_v)))
     for o in offsets:
         along = [_along(f, -f.half_v - o, margin, True), _along(f, f.half_v + o, margin, False)]
-        across = [_across(f, -f.half_u - o, margin, True), _across(f, f.half_u + o, margin, False)]
+        across = [_across(f, a, margin, True) for a in _across_at(f, o)]
         out.append(Layout(f"along-{o:g}", f"2 lines along the structure, {o:g} m outside its outer rows",
                           _racetrack(along)))
         if not _square(f):  # across a square structure is along it turned
-            out.append(Layout(f"across-{o:g}", f"2 lines across the structure, {o:g} m outside its end "
-                              "columns", _racetrack(across)))
+            out.append(Layout(f"across-{o:g}", f"{len(across)} lines across the structure, {o:g} m outside "
+                              "each jacket's end columns", _racetrack(across)))
         out += [
-            Layout(f"hash-{o:g}", f"the '#': 4 lines {o:g} m outside the piles", _racetrack(along + across)),
+            Layout(f"hash-{o:g}", f"the '#': {len(along + across)} lines {o:g} m outside the piles",
+                   _racetrack(along + across)),
             Layout(f"hash-{o:g}+tops", f"the '#' at {o:g} m and {len(tops_u)} lines over the rows of tops",
                    _racetrack(along + across + tops_u)),
         ]

@@ -50,6 +50,10 @@ class PlanOptions(Options):
                               help="the outermost beam kept, from vertical (the swath is twice it)")
     sonar: str = option("shallow-beam", choices="plan_sonar",
                         help="the named sonar whose beam and error model the prediction simulates")
+    sonar_from: str | None = option(None, kind=str, metavar="FILE",
+                                    help="one of your own sonar files (GSF, KMALL, .all, XTF): its swath, "
+                                         "beams per ping, ping rate and seabed noise by beam angle replace "
+                                         "the named sonar's")
     max_ping_rate: float = option(40.0, unit="Hz", check="positive",
                                   help="the sonar's highest ping rate (the two-way travel time to the "
                                        "swath's edge may allow fewer)")

@@ -53,11 +53,31 @@ def design_piles(design: Design, options: PlanOptions) -> tuple[DesignPile, ...]
     return tuple(piles)
 
 
+def _sonar(opts: PlanOptions) -> tuple[Any, dict[str, Any] | None]:
+    """The named sonar, or measured from ``sonar_from``, its swath at most twice ``max_angle``."""
+    sonar = named_sonar(opts.sonar)
+    measured = None
+    if opts.sonar_from is not None:
+        from .sonar import sonar_from_file
+
+        sonar, measured = sonar_from_file(opts.sonar_from, sonar, seed=opts.seed)
+    return dataclasses.replace(sonar, swath_deg=min(sonar.swath_deg, 2.0 * opts.max_angle)), measured
+
+
 def ping_rate(options: PlanOptions) -> float:
     """Pings a second: the sonar's highest rate, or the two-way travel time to the swath's
     edge on the seabed, whichever is slower."""
     slant = options.depth / math.cos(math.radians(options.max_angle))
     return min(options.max_ping_rate, SOUND_SPEED / (2.0 * slant))
+
+
+def _options_with(opts: PlanOptions, measured: dict[str, Any] | None) -> PlanOptions:
+    """The options with a measured ping rate as the sonar's highest and its swath's edge."""
+    if measured is None:
+        return opts
+    angle = min(opts.max_angle, measured["swath_deg"] / 2)
+    rate = measured["ping_rate_hz"] or opts.max_ping_rate
+    return opts.replace(max_angle=angle, max_ping_rate=rate)
 
 
 def _run_jobs(jobs: list[tuple[Layout, tuple[DesignPile, ...], Setting, int]], workers: int,
@@ -204,11 +224,12 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
     if not isinstance(design, Design):
         design = read_design(design)
     piles = design_piles(design, opts)
-    sonar = dataclasses.replace(named_sonar(opts.sonar), swath_deg=2.0 * opts.max_angle)
+    sonar, measured = _sonar(opts)
+    opts = _options_with(opts, measured)
     rate = ping_rate(opts)
     speed = opts.speed * KNOT
     xy = np.array([[p.x, p.y] for p in piles])
-    frame = structure_frame(xy, radius=opts.radius)
+    frame = structure_frame(xy, radius=opts.radius, groups=[p.group for p in piles])
     top_depth = -float(np.mean([p.top for p in piles])) + sonar.draft
     offsets = opts.offset_values() or offsets_for(top_depth, opts.max_angle)
     layouts = candidates(frame, offsets=offsets, margin=opts.margin)
@@ -231,6 +252,6 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
                         f"{chosen.layout.name}, is predicted to reach {chosen.worst_sigma:.3f} m")
     params = {**opts.to_dict(), "design": design.source, "ping_rate_hz": rate, "ping_spacing": speed / rate,
               "speed_ms": speed, "offsets_used": list(offsets), "frame": dataclasses.asdict(frame),
-              "sonar_model": dataclasses.asdict(sonar), "version": __version__}
+              "sonar_model": dataclasses.asdict(sonar), "sonar_measured": measured, "version": __version__}
     return PlanResult(piles, tuple(predictions), chosen.layout.name, opts.target_sigma, params,
                       tuple(warnings))

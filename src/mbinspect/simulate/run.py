@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,7 +20,7 @@ from .presets import (
     options_class,
 )
 from .scene import LABELS, Scene
-from .sonar import DEFAULT_SONAR, Sonar, Survey, named_sonar
+from .sonar import DEFAULT_SONAR, Line, Sonar, Survey, named_sonar
 from .survey import line_times, survey
 from .truth import reef_reference_rows, scene_truth
 
@@ -59,7 +59,8 @@ MAX_SOUNDINGS = 50_000_000
 
 
 def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | None = None,
-             force: bool = False, **overrides: Any) -> Simulation:
+             force: bool = False, survey_lines: Sequence[Sequence[Sequence[float]]] | None = None,
+             **overrides: Any) -> Simulation:
     """Simulate a preset survey with exact truth.
 
     Parameters
@@ -72,6 +73,9 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
         Called with the fraction of pings done.
     force : bool
         Simulate even when the survey would make more than :data:`MAX_SOUNDINGS`.
+    survey_lines : sequence of ((x, y), (x, y)), optional
+        Lines to sail instead of the preset's, each from its start to its end in the scene's
+        world coordinates (a plan's ``lines.csv``), at the preset's ``ping_spacing``.
     **overrides
         Any field of the preset's options (:class:`JacketOptions`,
         :class:`ReefFieldOptions`) or of :class:`Sonar`.
@@ -93,6 +97,8 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     (4, 1)
     """
     setup = _setup(preset, seed, overrides)
+    if survey_lines is not None:
+        setup = dataclasses.replace(setup, plan=_resailed(setup, survey_lines))
     estimate = setup.plan.estimated_soundings()
     if estimate > MAX_SOUNDINGS and not force:
         raise ParameterError(
@@ -121,6 +127,22 @@ def tide_rows(sonar: Sonar, times: np.ndarray) -> list[dict[str, Any]]:
     t = np.arange(t0, float(times.max()) + TIDE_MARGIN_S + TIDE_STEP_S, TIDE_STEP_S)
     return [{"time": dt.datetime.fromtimestamp(float(v), dt.UTC).isoformat().replace("+00:00", "Z"),
              "height": round(float(h), 4)} for v, h in zip(t, sonar.tide(t), strict=True)]
+
+
+def _resailed(setup: _Setup, lines: Sequence[Sequence[Sequence[float]]]) -> Survey:
+    """The setup's survey with ``lines`` (world coordinates) instead of the preset's."""
+    ox, oy = setup.scene.origin
+    spacing = setup.plan.lines[0].ping_spacing if setup.plan.lines else 0.1
+    out = []
+    for k, line in enumerate(lines):
+        v = [(float(x) - ox, float(y) - oy) for x, y in line]
+        if len(v) < 2 or not all(math.isfinite(c) for p in v for c in p):
+            raise ParameterError(f"survey_lines: line {k + 1} is {line!r}; expected a start and an end, "
+                                 "each x, y", option="survey_lines")
+        out.append(Line(tuple(v), ping_spacing=spacing))
+    if not out:
+        raise ParameterError("survey_lines: no line given; expected at least one", option="survey_lines")
+    return Survey(tuple(out), setup.plan.sonar)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,134 @@
+"""Plan before you sail (issue 31): is the predicted 1-sigma of a planned layout the spread of
+its spacing errors, and does the chosen layout meet the target in no more time than the '#'?
+
+Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jacket-15mm]``.
+
+For each configuration the design of a simulator preset (its ``design`` rows: the piles
+where they were meant to stand) is planned with :func:`mbinspect.plan.plan_survey` (the
+default sonar: 1-degree beams, amplitude and phase detection; speed 4 kn), and the chosen
+layout's lines, and the pile paper's '#' with lines over the tops at the preset's own offset,
+are then sailed over the preset's scene (as-built scatter, lean or rake, a sloping seabed,
+boulders) in ``--seeds`` independent simulated surveys and measured by ``locate_piles`` told
+the beam. Printed per layout: its lines and time on site, the predicted 1-sigma (RMS over
+the spacings), the spread of the spacing errors over the surveys (RMS, bias included), their
+ratio pooled and the range of the per-spacing ratios, the share of spacings within 2 sigma
+of the truth (the sigma each run reported, and the predicted one), whether the target was met
+(the spread no larger than the target), and the plan's wall time.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import run_study, table  # noqa: E402
+from mbinspect.piles import Design, locate_piles  # noqa: E402
+from mbinspect.plan import plan_survey, structure_frame  # noqa: E402
+from mbinspect.plan.layouts import candidates  # noqa: E402
+from mbinspect.simulate import simulate  # noqa: E402
+
+#: name -> (preset, plan options, the preset's '#' offset from its piles)
+CONFIGS: dict[str, tuple[str, dict, float]] = {
+    "jacket": ("jacket", {"radius": 0.75, "depth": 21.0, "target_sigma": 0.01}, 12.5),
+    "jacket-15mm": ("jacket", {"radius": 0.75, "depth": 21.0, "target_sigma": 0.015}, 12.5),
+    "wharf": ("wharf", {"radius": 0.6, "depth": 14.0, "target_sigma": 0.015}, 10.0),
+}
+
+#: config -> {"plan": PlanResult, "hash": Layout, "seconds": float}, made before the pool starts
+PLANS: dict[str, dict] = {}
+
+
+def _design(preset: str) -> Design:
+    rows = simulate(preset, seed=0, ping_spacing=5.0).truth["design"]
+    groups = {r["id"]: r.get("group", 1) for r in rows}
+    return Design(positions={r["id"]: (r["x"], r["y"]) for r in rows}, tops={r["id"]: r["top"] for r in rows},
+                  groups=groups if len(set(groups.values())) > 1 else {}, source=f"{preset} preset")
+
+
+def make_plan(name: str) -> None:
+    preset, opts, offset = CONFIGS[name]
+    design = _design(preset)
+    t = time.perf_counter()
+    plan = plan_survey(design, **opts)
+    seconds = time.perf_counter() - t
+    xy = np.array([[p.x, p.y] for p in plan.piles])
+    frame = structure_frame(xy, radius=opts["radius"], groups=[p.group for p in plan.piles])
+    hash_ = next(c for c in candidates(frame, offsets=(offset,), margin=20.0) if c.name.endswith("+tops"))
+    PLANS[name] = {"plan": plan, "hash": hash_, "seconds": seconds, "design": design}
+
+
+def run_one(args: tuple[str, int]) -> list[dict]:
+    name, seed = args
+    preset, opts, _ = CONFIGS[name]
+    made = PLANS[name]
+    plan = made["plan"]
+    rows = []
+    for which, layout in (("chosen", plan.best.layout), ("'#' + tops", made["hash"])):
+        lines = [(ln.start, ln.end) for ln in layout.lines]
+        sim = simulate(preset, seed=1000 + seed, ping_spacing=plan.parameters["ping_spacing"],
+                       sonar=plan.parameters["sonar"], survey_lines=lines)
+        truth = {p["id"]: p for p in sim.truth["piles"]}
+        res = locate_piles(sim.cloud, radius=opts["radius"], count=len(truth), design=made["design"],
+                           seed=seed, beam_width_deg=1.0)
+        errs = {}
+        for s in res.spacings:
+            if s.a in truth and s.b in truth:
+                d = math.hypot(truth[s.a]["x"] - truth[s.b]["x"], truth[s.a]["y"] - truth[s.b]["y"])
+                errs[(min(s.a, s.b), max(s.a, s.b))] = (s.distance - d, s.sigma)
+        rows.append({"config": name, "seed": seed, "which": which, "errs": errs})
+    return rows
+
+
+def _summary(name: str, which: str, rs: list[dict]) -> list:
+    made = PLANS[name]
+    plan = made["plan"]
+    target = plan.target_sigma
+    layout = plan.best.layout if which == "chosen" else made["hash"]
+    predicted = {(s.a, s.b): s.sigma for s in plan.best.spacings} if which == "chosen" else {}
+    pairs = sorted({k for r in rs for k in r["errs"]})
+    err = {k: np.array([r["errs"][k][0] for r in rs if k in r["errs"]]) for k in pairs}
+    rep = {k: np.array([r["errs"][k][1] for r in rs if k in r["errs"]]) for k in pairs}
+    spread = {k: float(np.sqrt(np.mean(v**2))) for k, v in err.items()}
+    pooled = math.sqrt(np.mean([v**2 for v in spread.values()]))
+    expected = sum(1 for a in plan.piles for b in plan.piles if a.id < b.id and a.group == b.group)
+    measured = sum(len(r["errs"]) for r in rs)
+    within_rep = np.mean(np.concatenate([np.abs(err[k]) <= 2 * rep[k] for k in pairs]))
+    if predicted:
+        pred = math.sqrt(np.mean([predicted[k] ** 2 for k in pairs]))
+        ratios = [predicted[k] / spread[k] for k in pairs]
+        within_pred = np.mean(np.concatenate([np.abs(err[k]) <= 2 * predicted[k] for k in pairs]))
+        pr = [f"{1000 * pred:.1f}", f"{pred / pooled:.2f}", f"{min(ratios):.2f}-{max(ratios):.2f}",
+              f"{100 * within_pred:.0f} %"]
+    else:
+        pr = ["-", "-", "-", "-"]
+    minutes = layout.time_on_site(plan.parameters["speed_ms"], plan.parameters["turn_s"]) / 60
+    return [name, which, layout.name, len(layout.lines), f"{minutes:.0f}", pr[0], f"{1000 * pooled:.1f}",
+            pr[1], pr[2], f"{100 * within_rep:.0f} %", pr[3], f"{measured}/{expected * len(rs)}",
+            "yes" if pooled <= target else "no", f"{1000 * target:g}",
+            f"{made['seconds']:.0f}" if which == "chosen" else "-"]
+
+
+def main() -> None:
+    chosen = [c for c in (sys.argv[sys.argv.index("--configs") + 1].split(",") if "--configs" in sys.argv
+                          else CONFIGS)]
+    for name in chosen:
+        make_plan(name)
+    chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)
+    out = []
+    for name in chosen:
+        for which in ("chosen", "'#' + tops"):
+            rs = [r for r in results if r["config"] == name and r["which"] == which]
+            if rs:
+                out.append(_summary(name, which, rs))
+    print(table(["config", "layout", "name", "lines", "min on site", "predicted sigma mm", "spread mm",
+                 "predicted/spread", "per spacing", "within 2 sigma (reported)", "within 2 sigma (predicted)",
+                 "spacings measured", "target met", "target mm", "plan s"], out))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,147 @@
+"""Plan before you sail (issue 31): layouts round a design, trials against the truth, the choice,
+and the command's files."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+from mbinspect.cli.main import main
+from mbinspect.errors import InputError, ParameterError
+from mbinspect.piles import Design
+from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
+from mbinspect.plan.layouts import candidates, with_both_ways
+from mbinspect.plan.predict import Setting, run_trial
+from mbinspect.simulate import named_sonar
+
+SQUARE = Design(positions={1: (1000.0, 2000.0), 2: (1022.0, 2000.0), 3: (1000.0, 2022.0), 4: (1022.0, 2022.0)},
+                source="square")
+
+
+def test_the_frame_and_layouts_follow_the_design_turned_any_way():
+    turn = math.radians(30.0)
+    rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+    xy = np.array(list(SQUARE.positions.values())) @ rot.T
+    f = structure_frame(xy, radius=0.75)
+    assert f.half_u == pytest.approx(11.0) and f.half_v == pytest.approx(11.0)
+    assert len(f.rows) == 2 and len(f.columns) == 2
+    lays = {c.name: c for c in candidates(f, offsets=(10.0,), margin=20.0)}
+    hash_ = lays["hash-10"]
+    assert len(hash_.lines) == 4 and len(lays["hash-10+tops"].lines) == 6
+    # each '#' line 10 m outside the outer piles, 20 m beyond the outermost pile at each end
+    for ln in hash_.lines:
+        assert ln.length == pytest.approx(22.0 + 40.0)
+        mid = (np.array(ln.start) + np.array(ln.end)) / 2
+        d = np.abs((xy - mid) @ np.array([-(ln.end[1] - ln.start[1]), ln.end[0] - ln.start[0]]) / ln.length)
+        assert d.min() == pytest.approx(10.0, abs=1e-6)
+    # a racetrack: each line starts where the last one ended, near enough
+    both = with_both_ways(hash_)
+    assert len(both.lines) == 8 and both.lines[1].start == both.lines[0].end
+    assert abs((both.lines[1].heading - both.lines[0].heading) % 360 - 180) < 1e-6
+    # time on site: the lines at speed, a turn between two
+    assert hash_.time_on_site(2.0, 100.0) == pytest.approx(4 * 62.0 / 2.0 + 3 * 100.0)
+
+
+def test_a_wharf_gets_lines_across_each_jacket():
+    xy, groups = [], []
+    for g, cx in enumerate((0.0, 40.0, 80.0)):
+        for dx, dy in ((-7, -7), (7, -7), (-7, 7), (7, 7)):
+            xy.append((cx + dx, dy))
+            groups.append(g + 1)
+    f = structure_frame(np.array(xy), radius=0.6, groups=groups)
+    lays = {c.name: c for c in candidates(f, offsets=(5.0,), margin=10.0)}
+    assert len(lays["across-5"].lines) == 6 and len(lays["along-5"].lines) == 2
+    assert len(lays["tops-grid"].lines) == 2 + 6
+
+
+def test_options_and_design_are_checked_with_the_reason():
+    opts = PlanOptions(radius=0.75, depth=21.0)
+    with pytest.raises(ParameterError, match="height: missing"):
+        design_piles(SQUARE, opts)
+    with pytest.raises(ParameterError, match="not above the seabed"):
+        design_piles(SQUARE, opts.replace(height=None, depth=21.0).replace(height=0.1))
+    with pytest.raises(InputError, match="spacings only"):
+        design_piles(Design(spacings={(1, 2): 22.0}), opts.replace(height=5.0))
+    with pytest.raises(ParameterError, match="offsets"):
+        PlanOptions(radius=0.75, depth=21.0, offsets="ten")
+    piles = design_piles(Design(positions=SQUARE.positions, tops={1: -15.0}), opts.replace(height=5.0))
+    assert [p.top for p in piles] == [-15.0, -16.0, -16.0, -16.0]
+    # the travel time to the swath's edge limits the ping rate in deep water
+    assert ping_rate(opts) == pytest.approx(1500.0 / (2 * 21.0 / math.cos(math.radians(60))))
+    assert ping_rate(opts.replace(depth=5.0)) == opts.max_ping_rate
+
+
+def test_a_trial_measures_the_design_and_sees_which_sides_lines_along_it_miss():
+    opts = PlanOptions(radius=0.75, depth=21.0, height=5.0)
+    piles = design_piles(SQUARE, opts)
+    f = structure_frame(np.array([[p.x, p.y] for p in piles]), radius=0.75)
+    lays = {c.name: c for c in candidates(f, offsets=(10.0,), margin=20.0)}
+    setting = Setting(named_sonar("shallow"), 0.2, 2.0, 21.0, 0.75, 1.0, f.centre)
+    hash_ = run_trial(lays["hash-10"], piles, setting, 1)
+    assert not hash_.missed and len(hash_.spacings) == 6
+    # every spacing near the truth and within a few of its reported sigmas
+    assert all(abs(e) < 0.05 and abs(e) < 4 * s for _, _, e, s in hash_.spacings)
+    assert all(min(c) > 10 for _, c in hash_.sectors)  # the '#' reaches every side
+    along = run_trial(lays["along-10"], piles, setting, 1)
+    # lines along x (east-west) see the north and south faces; the east and west ones only
+    # at grazing incidence, at their edges
+    c = np.sum([c for _, c in along.sectors], axis=0)
+    assert c[2] + c[6] < 0.5 * (c[0] + c[4])
+
+
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory):
+    root = tmp_path_factory.mktemp("plan")
+    design = root / "design.csv"
+    design.write_text("id,x,y\n" + "".join(f"{i},{x},{y}\n" for i, (x, y) in SQUARE.positions.items()))
+    code = main(["plan", str(design), "--radius", "0.75", "--depth", "21", "--height", "5", "--sonar", "shallow",
+                 "--offsets", "10", "--seeds", "2", "--workers", "1", "--speed", "8", "--target-sigma", "0.03",
+                 "--crs", "EPSG:32650", "--out", str(root / "out")])
+    return root, code
+
+
+def test_the_plan_chooses_the_fastest_layout_that_meets_the_target(planned):
+    root, code = planned
+    assert code == 0
+    doc = json.loads((root / "out" / "plan.json").read_text())
+    result = PlanResult.from_dict(doc)
+    assert result.to_dict() == doc  # it reads back
+    best = result.best
+    assert best is not None and best.meets_target and best.surveys == 2
+    assert all(s.sigma <= 0.03 for s in best.spacings) and len(best.spacings) == 6
+    # nothing faster was confirmed to meet it
+    faster = [p for p in result.predictions if p.time_on_site_s < best.time_on_site_s]
+    assert not any(p.meets_target for p in faster)
+    assert doc["time_on_site_s"] == best.time_on_site_s and doc["predicted"][0].keys() >= {"a", "b", "sigma"}
+    with open(root / "out" / "lines.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["line", "x_start", "y_start", "x_end", "y_end", "heading"]
+    assert len(rows) == len(best.layout.lines)
+    gj = json.loads((root / "out" / "lines.geojson").read_text())
+    lon, lat = gj["features"][0]["geometry"]["coordinates"][0]
+    assert 110 < lon < 125 and 0 < lat < 40  # WGS 84 for a design in UTM 50N
+    assert (root / "out" / "report.html").read_text().count("<table") >= 3
+
+
+def test_the_plan_refuses_bad_input_in_one_line(tmp_path, capsys):
+    design = tmp_path / "design.csv"
+    design.write_text("id,x,y\n1,0,0\n2,22,0\n")
+    assert main(["plan", str(design), "--radius", "0.75", "--depth", "21", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "height: missing" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert main(["plan", str(design), "--radius", "0.75", "--depth", "21", "--height", "5", "--crs",
+                 "EPSG:4326", "--out", str(tmp_path / "o")]) == 2
+    assert "geographic" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_library_plans_from_options_given_by_name():
+    r = plan_survey(SQUARE, radius=0.75, depth=21.0, height=5.0, sonar="shallow", offsets="10", seeds=1,
+                    workers=1, speed=8.0, target_sigma=0.05)
+    assert r.best is not None and r.best.meets_target
+    assert r.parameters["ping_spacing"] == pytest.approx(8 * 1852 / 3600 / ping_rate(PlanOptions(
+        radius=0.75, depth=21.0)))
