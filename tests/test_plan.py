@@ -12,14 +12,15 @@ import pytest
 
 from mbinspect.cli.main import main
 from mbinspect.errors import InputError, ParameterError
+from mbinspect.io import write
 from mbinspect.piles import Design
 from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
 from mbinspect.plan.layouts import candidates, with_both_ways
 from mbinspect.plan.predict import Setting, run_trial
-from mbinspect.simulate import named_sonar
+from mbinspect.simulate import named_sonar, simulate
 
-SQUARE = Design(positions={1: (1000.0, 2000.0), 2: (1022.0, 2000.0), 3: (1000.0, 2022.0), 4: (1022.0, 2022.0)},
-                source="square")
+SQUARE = Design(positions={1: (1000.0, 2000.0), 2: (1022.0, 2000.0), 3: (1000.0, 2022.0),
+                           4: (1022.0, 2022.0)}, source="square")
 
 
 def test_the_frame_and_layouts_follow_the_design_turned_any_way():
@@ -97,10 +98,11 @@ def test_a_trial_measures_the_design_and_sees_which_sides_lines_along_it_miss():
 def planned(tmp_path_factory):
     root = tmp_path_factory.mktemp("plan")
     design = root / "design.csv"
-    design.write_text("id,x,y\n" + "".join(f"{i},{x},{y}\n" for i, (x, y) in SQUARE.positions.items()))
-    code = main(["plan", str(design), "--radius", "0.75", "--depth", "21", "--height", "5", "--sonar", "shallow",
-                 "--offsets", "10", "--seeds", "2", "--workers", "1", "--speed", "8", "--target-sigma", "0.03",
-                 "--crs", "EPSG:32650", "--out", str(root / "out")])
+    # the jacket preset's design, so that the preset can be surveyed along the plan's lines
+    design.write_text("id,x,y\n1,512289,3456689\n2,512311,3456689\n3,512289,3456711\n4,512311,3456711\n")
+    code = main(["plan", str(design), "--radius", "0.75", "--depth", "21", "--height", "5", "--sonar",
+                 "shallow", "--offsets", "10", "--seeds", "2", "--workers", "1", "--speed", "8",
+                 "--target-sigma", "0.03", "--crs", "EPSG:32650", "--out", str(root / "out")])
     return root, code
 
 
@@ -145,3 +147,21 @@ def test_the_library_plans_from_options_given_by_name():
     assert r.best is not None and r.best.meets_target
     assert r.parameters["ping_spacing"] == pytest.approx(8 * 1852 / 3600 / ping_rate(PlanOptions(
         radius=0.75, depth=21.0)))
+
+
+def test_a_survey_run_is_checked_against_its_plan(planned, capsys):
+    root, _ = planned
+    doc = json.loads((root / "out" / "plan.json").read_text())
+    lines = [((r["x_start"], r["y_start"]), (r["x_end"], r["y_end"])) for r in doc["lines"]]
+    sim = simulate("jacket", seed=4, ping_spacing=0.25, sonar="shallow", survey_lines=lines[1:])
+    write(sim.cloud, root / "run.laz")
+    capsys.readouterr()
+    assert main(["plan", str(root / "out"), "--check", str(root / "run.laz"), "--out",
+                 str(root / "chk")]) == 0
+    check = json.loads((root / "chk" / "check.json").read_text())
+    # the first planned line was not sailed; every other one was, within a few decimetres
+    assert check["lines"][0]["sailed"] is None
+    assert all(ln["sailed"] is not None and ln["offset"] < 0.6 and ln["covered"] > 0.9
+               for ln in check["lines"][1:])
+    assert len(check["spacings"]) == 6 and all(s["predicted_sigma"] > 0 for s in check["spacings"])
+    assert "1 of" in check["notes"][0] and "line 1 (heading" in capsys.readouterr().out

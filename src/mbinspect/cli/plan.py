@@ -28,8 +28,15 @@ def add_parser(sub: Any) -> None:
              "--crs), plan.json, plan.png and report.html.",
              "examples:\n  mbinspect plan design.csv --radius 0.75 --depth 21 --height 5 --out plan-out\n"
              "  mbinspect plan design.csv --radius 0.75 --depth 21 --target-sigma 0.015 --speed 3 "
-             "--crs EPSG:32650")
-    p.add_argument("design", help="pile design CSV: id,x,y[,group][,top] (m, the design's projected CRS)")
+             "--crs EPSG:32650\n"
+             "  mbinspect plan plan-out --check survey/*.xtf --out check-out   (the survey run, against "
+             "its plan)")
+    p.add_argument("design", help="pile design CSV: id,x,y[,group][,top] (m, the design's projected CRS); "
+                                  "with --check, the plan (plan.json or its folder)")
+    p.add_argument("--check", nargs="+", metavar="SURVEY",
+                   help="compare the survey run (its files) with the plan: the lines sailed, the sides of "
+                        "each pile reached, each spacing's 1-sigma against the one predicted; writes "
+                        "check.json")
     p.add_argument("--crs", help="the design's projected CRS (EPSG:32650, say): lines.geojson is then in "
                                  "WGS 84")
     g = p.add_argument_group("plan (every option of mbinspect.plan.PlanOptions)")
@@ -48,6 +55,8 @@ def cmd_plan(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> in
     from ..plan.outputs import write_plan_outputs
     from .flags import given_options
 
+    if args.check:
+        return _check(args, rep, argv)
     options = PlanOptions.from_given(given_options(args, PlanOptions))
     crs = _crs(args.crs)
     out = Path(args.out or "plan-out")
@@ -61,6 +70,52 @@ def cmd_plan(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> in
     if rep.verbosity >= 0:
         _print(result)
     rep.info(f"results in {out}/ (lines.csv, lines.geojson, plan.json, report.html)")
+    return 0
+
+
+def _check(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
+    """A survey run against its plan: check.json and a summary."""
+    import json
+
+    from ..errors import InputError
+    from ..outputs import output_dir, write_json
+    from ..plan import PlanResult
+    from ..plan.check import check_survey
+    from ..survey.inputs import read_survey
+
+    path = Path(args.design)
+    path = path / "plan.json" if path.is_dir() else path
+    try:
+        plan = PlanResult.from_dict(json.loads(path.read_text(encoding="utf-8")))
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise InputError(f"{path}: not a plan written by 'mbinspect plan' ({e}); expected plan.json"
+                         ) from None
+    crs = args.crs or plan.parameters.get("crs")
+    cloud = read_survey([Path(f) for f in args.check], progress=rep.progress("reading the survey"),
+                        **({"crs": crs} if crs else {}))
+    out = Path(args.out or "check-out")
+    with output_dir(out, overwrite=args.overwrite, inputs=[str(path), *args.check]) as tmp:
+        result = check_survey(plan, cloud)
+        doc = result.to_dict()
+        doc["parameters"].update(command_line=["mbinspect", *argv], plan=str(path), survey=list(args.check))
+        write_json(doc, tmp / "check.json")
+    if rep.verbosity >= 0:
+        for ln in result.lines:
+            print(f"line {ln['line']} (heading {ln['heading']:.0f}): " + (
+                "not sailed" if ln["sailed"] is None else
+                f"sailed {ln['offset']:.1f} m off, heading {ln['heading_diff']:.0f} deg off, "
+                f"{100 * ln['covered']:.0f} % of it"))
+        for s in result.spacings:
+            pred = s["predicted_sigma"]
+            print(f"spacing {s['a']}-{s['b']}: {s['distance']:.3f} m ± {s['sigma']:.4f} (predicted ± "
+                  + (f"{pred:.4f})" if pred is not None else "none)"))
+        for p in result.piles:
+            if p.get("found") and p["unseen"] != p["unseen_planned"]:
+                print(f"pile {p['id']}: sides unseen {', '.join(p['unseen']) or 'none'} (planned: "
+                      f"{', '.join(p['unseen_planned']) or 'none'})")
+        for n in result.notes:
+            print(n)
+    rep.info(f"results in {out}/ (check.json)")
     return 0
 
 
