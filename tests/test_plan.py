@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +19,8 @@ from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, pla
 from mbinspect.plan.layouts import candidates, with_both_ways
 from mbinspect.plan.predict import Setting, run_trial
 from mbinspect.simulate import named_sonar, simulate
+
+DATA = Path(__file__).parent / "data"
 
 SQUARE = Design(positions={1: (1000.0, 2000.0), 2: (1022.0, 2000.0), 3: (1000.0, 2022.0),
                            4: (1022.0, 2022.0)}, source="square")
@@ -165,3 +168,40 @@ def test_a_survey_run_is_checked_against_its_plan(planned, capsys):
                for ln in check["lines"][1:])
     assert len(check["spacings"]) == 6 and all(s["predicted_sigma"] > 0 for s in check["spacings"])
     assert "1 of" in check["notes"][0] and "line 1 (heading" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", ["R2Testing_0009_first40.xtf", "gsf_EX1502L2_0175.gsf",
+                                  "ets_kmall_OS01_-6133896825737735245.kmall", "Belgica_0077.all",
+                                  "pdal_mbf_em300raw.mb56"])
+def test_the_sonar_is_measured_from_a_users_file(name):
+    from mbinspect.io import read
+    from mbinspect.plan.sonar import _model_sigmas, sonar_from_file
+
+    path = DATA / name
+    sonar, measured = sonar_from_file(path, named_sonar("shallow-beam"))
+    cloud = read(path)
+    angle = np.abs(cloud.fields["beam_angle"])
+    assert sonar.swath_deg == pytest.approx(2 * np.quantile(angle, 0.995))
+    assert sonar.beam_across_deg == 1.0 and measured["n_beams"] >= 100
+    # the scaled model shows the file's own seabed noise (a survey of another seed)
+    model = _model_sigmas(sonar, measured["depth"], 1)
+    ratios = [b["file_sigma"] / model[tuple(b["angles"])] for b in measured["by_angle"]
+              if tuple(b["angles"]) in model]
+    assert ratios and 0.75 < float(np.median(ratios)) < 1.33
+    # bin by bin within the misfit it states, and a warning where that is over 1.5
+    assert all(1 / 1.2 / measured["misfit"] < r < 1.2 * measured["misfit"] for r in ratios)
+    assert ("warning" in measured) == (measured["misfit"] > 1.5)
+    if name in ("R2Testing_0009_first40.xtf", "Belgica_0077.all", "pdal_mbf_em300raw.mb56"):
+        assert measured["misfit"] < 2.0
+    if name.endswith(".xtf"):  # the XTF's pings carry their times: R2Sonic at 10 m pinged at 19 Hz
+        assert measured["ping_rate_hz"] == pytest.approx(19.2, abs=0.5)
+
+
+def test_a_file_without_pings_cannot_give_the_sonar(tmp_path):
+    from mbinspect.plan.sonar import sonar_from_file
+
+    f = tmp_path / "seabed.xyz"
+    rng = np.random.default_rng(0)
+    np.savetxt(f, np.column_stack([rng.uniform(0, 50, (3000, 2)), rng.normal(-20, 0.02, 3000)]))
+    with pytest.raises(InputError, match="no ping numbers and beam angles"):
+        sonar_from_file(f, named_sonar("shallow"))

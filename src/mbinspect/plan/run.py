@@ -244,7 +244,7 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
     if progress is not None:
         progress(1.0)
     predictions.sort(key=lambda p: (p.time_on_site_s, p.layout.name))
-    warnings = []
+    warnings = [measured["warning"]] if measured and measured.get("warning") else []
     if chosen is None:
         full = [p for p in predictions if p.surveys == opts.seeds] or predictions
         chosen = min(full, key=lambda p: (p.worst_sigma, p.time_on_site_s))
