@@ -13,12 +13,11 @@ import pytest
 
 from mbinspect.cli.main import main
 from mbinspect.errors import InputError, ParameterError
-from mbinspect.io import write
 from mbinspect.piles import Design
 from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
 from mbinspect.plan.layouts import candidates, with_both_ways
 from mbinspect.plan.predict import Setting, run_trial
-from mbinspect.simulate import named_sonar, simulate
+from mbinspect.simulate import named_sonar
 
 DATA = Path(__file__).parent / "data"
 
@@ -154,12 +153,12 @@ def test_the_library_plans_from_options_given_by_name():
 
 def test_a_survey_run_is_checked_against_its_plan(planned, capsys):
     root, _ = planned
-    doc = json.loads((root / "out" / "plan.json").read_text())
-    lines = [((r["x_start"], r["y_start"]), (r["x_end"], r["y_end"])) for r in doc["lines"]]
-    sim = simulate("jacket", seed=4, ping_spacing=0.25, sonar="shallow", survey_lines=lines[1:])
-    write(sim.cloud, root / "run.laz")
+    rows = (root / "out" / "lines.csv").read_text().splitlines()
+    (root / "sailed.csv").write_text("\n".join([rows[0], *rows[2:]]) + "\n")  # the first line not sailed
+    assert main(["simulate", "jacket", "--survey-lines", str(root / "sailed.csv"), "--sonar", "shallow",
+                 "--ping-spacing", "0.25", "--seed", "4", "--format", "laz", "--out", str(root / "run")]) == 0
     capsys.readouterr()
-    assert main(["plan", str(root / "out"), "--check", str(root / "run.laz"), "--out",
+    assert main(["plan", str(root / "out"), "--check", str(root / "run" / "soundings.laz"), "--out",
                  str(root / "chk")]) == 0
     check = json.loads((root / "chk" / "check.json").read_text())
     # the first planned line was not sailed; every other one was, within a few decimetres
@@ -205,3 +204,11 @@ def test_a_file_without_pings_cannot_give_the_sonar(tmp_path):
     np.savetxt(f, np.column_stack([rng.uniform(0, 50, (3000, 2)), rng.normal(-20, 0.02, 3000)]))
     with pytest.raises(InputError, match="no ping numbers and beam angles"):
         sonar_from_file(f, named_sonar("shallow"))
+
+
+def test_a_line_plan_with_a_bad_value_is_refused_in_one_line(tmp_path, capsys):
+    f = tmp_path / "lines.csv"
+    f.write_text("line,x_start,y_start,x_end,y_end,heading\n1,0,0,60,0,90\n2,60,ten,0,10,270\n")
+    assert main(["simulate", "jacket", "--survey-lines", str(f), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "line 3, column y_start: 'ten'" in err and len(err.splitlines()) == 1

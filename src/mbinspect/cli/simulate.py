@@ -54,6 +54,9 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
         return 0
     out = Path(args.out) if args.out else Path(f"sim-{args.preset}-{args.seed}")
     ext = _writable()[args.format]
+    if args.survey_lines and (args.resurvey or args.per_line):
+        raise ParameterError("survey_lines: goes with one survey in memory; expected no --resurvey or "
+                             "--per-line with it", option="survey_lines")
     if args.resurvey:
         return _resurvey(args, given, out, ext, rep, argv)
     if args.changes or args.shift or args.line_shift is not None:
@@ -61,6 +64,10 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
                              "expected --resurvey too", option="changes")
     if args.per_line:
         return _simulate_lines(args, given, out, ext, rep, argv)
+    if args.survey_lines:
+        from ..plan.outputs import read_line_plan
+
+        given["survey_lines"] = read_line_plan(args.survey_lines)
     with output_dir(out, overwrite=args.overwrite) as tmp:
         t = time.perf_counter()
         sim = simulate(args.preset, seed=args.seed, progress=rep.progress("ray casting"),
@@ -186,6 +193,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--per-line", action="store_true",
                    help="write one file per survey line (line_001.laz ...), streaming line by line: a survey "
                         "of any size in the memory of one line")
+    p.add_argument("--survey-lines", metavar="LINES.csv",
+                   help="sail these lines instead of the preset's: a lines.csv of 'mbinspect plan' "
+                        "(x_start,y_start,x_end,y_end in the scene's coordinates)")
     g = p.add_argument_group("survey again (change between surveys)")
     g.add_argument("--resurvey", metavar="TRUTH.json",
                    help="the scene of an earlier simulation (its truth.json), changed by --changes and "

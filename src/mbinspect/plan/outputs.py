@@ -17,7 +17,7 @@ from ..report.writers import Outputs, write_outputs
 from .predict import SECTORS
 from .results import PlanResult, Prediction
 
-__all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows"]
+__all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows", "read_line_plan"]
 
 #: ``lines.csv``'s columns.
 LINE_COLUMNS = ("line", "x_start", "y_start", "x_end", "y_end", "heading")
@@ -31,6 +31,44 @@ def line_rows(result: PlanResult) -> list[dict[str, Any]]:
     return [{"line": k + 1, "x_start": round(ln.start[0], 3), "y_start": round(ln.start[1], 3),
              "x_end": round(ln.end[0], 3), "y_end": round(ln.end[1], 3), "heading": round(ln.heading, 2)}
             for k, ln in enumerate(best.layout.lines)]
+
+
+def read_line_plan(path: str | Path) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """The lines of a ``lines.csv`` (``x_start,y_start,x_end,y_end`` by name, other columns
+    ignored), each ((x, y), (x, y)) from start to end.
+
+    Raises
+    ------
+    FileAccessError
+        No such file.
+    InputError
+        A column missing or a value not a finite number; the message names the line and column.
+    """
+    import csv
+
+    from ..errors import FileAccessError, InputError
+
+    p = Path(path)
+    if not p.is_file():
+        raise FileAccessError(f"{p}: no such file; expected a lines.csv written by 'mbinspect plan'")
+    with open(p, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.DictReader(fh))
+    need = ("x_start", "y_start", "x_end", "y_end")
+    if not rows or any(c not in rows[0] for c in need):
+        raise InputError(f"{p}: line 1: expected the columns {','.join(need)} (and line, heading)")
+    out = []
+    for k, row in enumerate(rows, start=2):
+        values = []
+        for c in need:
+            try:
+                v = float(row[c])
+            except (TypeError, ValueError):
+                v = math.nan
+            if not math.isfinite(v):
+                raise InputError(f"{p}: line {k}, column {c}: {row[c]!r}; expected a number of metres")
+            values.append(v)
+        out.append(((values[0], values[1]), (values[2], values[3])))
+    return out
 
 
 def _features(result: PlanResult) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
