@@ -1,7 +1,10 @@
 """Plan before you sail (issue 31): is the predicted 1-sigma of a planned layout the spread of
 its spacing errors, and does the chosen layout meet the target in no more time than the '#'?
 
-Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jacket-15mm]``.
+Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jacket-15mm,xtf]``.
+
+``xtf`` is the real background: a small jacket injected beside the R2Sonic XTF's own line at
+four places, against the plan's prediction for that line with the sonar measured from the file.
 
 For each configuration the design of a simulator preset (its ``design`` rows: the piles
 where they were meant to stand) is planned with :func:`mbinspect.plan.plan_survey` (the
@@ -113,9 +116,68 @@ def _summary(name: str, which: str, rs: list[dict]) -> list:
             f"{made['seconds']:.0f}" if which == "chosen" else "-"]
 
 
+#: The real background: the R2Sonic XTF (one line, 236 k soundings at 10 m), its boat at 1.2 kn
+XTF = Path(__file__).parents[2] / "shared" / "real" / "files" / "R2Testing_0009.xtf"
+
+
+def real_background() -> None:
+    """A small jacket (4 piles of r 0.5 m, 5 m apart, 2.5 m proud) injected beside the XTF's own
+    line at four places through 1-degree beams, measured, against the plan's prediction for
+    that line with the sonar measured from the same file (``sonar_from``)."""
+    from mbinspect.inject import InjectedPile, inject
+    from mbinspect.io import PointCloud, read
+    from mbinspect.plan import Layout, PlanLine
+    from mbinspect.plan.check import sailed_lines
+    from mbinspect.simulate import named_sonar
+
+    cloud = read(XTF)
+    line = sailed_lines(cloud)[0]
+    layout = Layout("xtf-line", "the file's own line", (PlanLine(tuple(line["start"]), tuple(line["end"])),))
+    a, b = np.array(line["start"]), np.array(line["end"])
+    d = (b - a) / np.linalg.norm(b - a)
+    n = np.array([d[1], -d[0]])
+    mid = (a + b) / 2
+    rows = []
+    for k, (side, along) in enumerate([(1, -5.0), (1, 5.0), (-1, -5.0), (-1, 5.0)]):
+        centre = mid + along * d + side * 6.5 * n
+        pos = {i + 1: tuple(centre + u * 2.5 * d + v * 2.5 * n) for i, (u, v) in enumerate(
+            [(-1, -1), (1, -1), (-1, 1), (1, 1)])}
+        near = np.hypot(*(cloud.xyz[:, :2] - centre).T) < 6
+        seabed = float(np.median(cloud.xyz[near, 2]))
+        design = Design(positions=pos, tops={i: seabed + 2.5 for i in pos}, source="xtf")
+        t = time.perf_counter()
+        plan = plan_survey(design, radius=0.5, depth=-seabed, sonar_from=str(XTF), speed=1.2, seeds=5,
+                           target_sigma=0.05, layouts=[layout])
+        seconds = time.perf_counter() - t
+        inj = inject(cloud.xyz, dict(cloud.fields), beam=named_sonar("shallow-beam"), piles=[
+            InjectedPile(i, x, y, radius=0.5, height=2.5) for i, (x, y) in pos.items()])
+        res = locate_piles(PointCloud(inj.xyz, dict(cloud.fields)), radius=0.5, count=4, design=design,
+                           seed=k, beam_width_deg=1.0)
+        truth = {p["id"]: p for p in inj.truth["piles"]}
+        pred = {(s.a, s.b): s.sigma for s in plan.best.spacings}
+        for s in res.spacings:
+            tr = math.hypot(truth[s.a]["x"] - truth[s.b]["x"], truth[s.a]["y"] - truth[s.b]["y"])
+            rows.append((k, s.distance - tr, s.sigma, pred[(min(s.a, s.b), max(s.a, s.b))], seconds))
+    err, rep, pred = (np.array([r[i] for r in rows]) for i in (1, 2, 3))
+    out = [["xtf, 4 placements", len(rows), f"{1000 * math.sqrt(np.mean(pred**2)):.1f}",
+            f"{1000 * math.sqrt(np.mean(err**2)):.1f}", f"{1000 * math.sqrt(np.mean(rep**2)):.1f}",
+            f"{math.sqrt(np.mean(pred**2)) / math.sqrt(np.mean(err**2)):.2f}",
+            f"{100 * np.mean(np.abs(err) <= 2 * pred):.0f} %",
+            f"{100 * np.mean(np.abs(err) <= 2 * rep):.0f} %",
+            f"{np.mean([r[4] for r in rows]):.0f}"]]
+    print(table(["real background", "spacings", "predicted sigma mm", "error RMS mm", "reported sigma mm",
+                 "predicted/error", "within 2 predicted sigma", "within 2 reported sigma", "plan s"], out))
+
+
 def main() -> None:
     chosen = [c for c in (sys.argv[sys.argv.index("--configs") + 1].split(",") if "--configs" in sys.argv
-                          else CONFIGS)]
+                          else [*CONFIGS, "xtf"])]
+    if "xtf" in chosen:
+        real_background()
+        chosen.remove("xtf")
+        if not chosen:
+            return
+        sys.argv[sys.argv.index("--configs") + 1] = ",".join(chosen)
     for name in chosen:
         make_plan(name)
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)

@@ -192,8 +192,24 @@ class _Search:
         return None
 
 
+def _choose(search: _Search, layouts: list[Layout], given: bool) -> Prediction | None:
+    """The layout that meets the target in the least time: among ``layouts`` each surveyed
+    ``seeds`` times when ``given``, else screened, then the best two sailed both ways if none does."""
+    if given:
+        search.run(layouts, [search.options.seed * 1000 + k for k in range(search.options.seeds)])
+        meeting = [p for p in (search.prediction(lay.name) for lay in layouts) if p.meets_target]
+        return min(meeting, key=lambda p: (p.time_on_site_s, p.layout.name)) if meeting else None
+    chosen = search.screen_then_confirm(layouts)
+    if chosen is None:  # the best few sailed both ways
+        now = [search.prediction(n) for n in search.layouts]
+        best = sorted(now, key=lambda p: (p.worst_sigma, p.time_on_site_s))[:BOTH_WAYS]
+        chosen = search.screen_then_confirm([with_both_ways(p.layout) for p in best])
+    return chosen
+
+
 def plan_survey(design: Design | str | Path, options: PlanOptions | None = None, *,
-                progress: Callable[[float], None] | None = None, **overrides: Any) -> PlanResult:
+                progress: Callable[[float], None] | None = None, layouts: Sequence[Layout] | None = None,
+                **overrides: Any) -> PlanResult:
     """Plan the survey lines round a pile design.
 
     Candidate layouts (:func:`~mbinspect.plan.layouts.candidates`) are each surveyed
@@ -212,6 +228,9 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
     options : PlanOptions, optional
     progress : callable, optional
         Called with the fraction of simulated surveys done.
+    layouts : sequence of Layout, optional
+        Predict these layouts (each surveyed ``seeds`` times) instead of generating candidates:
+        the lines a survey sailed, say.
     **overrides
         Options by name (``plan_survey("design.csv", radius=0.75, depth=21, height=5)``).
 
@@ -232,14 +251,10 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
     frame = structure_frame(xy, radius=opts.radius, groups=[p.group for p in piles])
     top_depth = -float(np.mean([p.top for p in piles])) + sonar.draft
     offsets = opts.offset_values() or offsets_for(top_depth, opts.max_angle)
-    layouts = candidates(frame, offsets=offsets, margin=opts.margin)
+    tried = list(layouts) if layouts is not None else candidates(frame, offsets=offsets, margin=opts.margin)
     setting = Setting(sonar, speed / rate, speed, opts.depth, opts.radius, opts.tilt_max, frame.centre)
-    search = _Search(piles, setting, opts, progress, (len(layouts) + BOTH_WAYS) * opts.seeds)
-    chosen = search.screen_then_confirm(layouts)
-    if chosen is None:  # the best few sailed both ways
-        now = [search.prediction(n) for n in search.layouts]
-        best = sorted(now, key=lambda p: (p.worst_sigma, p.time_on_site_s))[:BOTH_WAYS]
-        chosen = search.screen_then_confirm([with_both_ways(p.layout) for p in best])
+    search = _Search(piles, setting, opts, progress, (len(tried) + BOTH_WAYS) * opts.seeds)
+    chosen = _choose(search, tried, layouts is not None)
     predictions = [search.prediction(n) for n in search.layouts]
     if progress is not None:
         progress(1.0)
