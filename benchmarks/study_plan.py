@@ -63,6 +63,10 @@ def make_plan(name: str) -> None:
     frame = structure_frame(xy, radius=opts["radius"], groups=[p.group for p in plan.piles])
     hash_ = next(c for c in candidates(frame, offsets=(offset,), margin=20.0) if c.name.endswith("+tops"))
     PLANS[name] = {"plan": plan, "hash": hash_, "seconds": seconds, "design": design}
+    print(f"{name}: planned in {seconds:.0f} s: {plan.chosen}, {plan.best.time_on_site_s / 60:.0f} min, "
+          f"worst {1000 * plan.best.worst_sigma:.1f} mm; tried " + ", ".join(
+              f"{p.layout.name} ({1000 * p.worst_sigma:.1f} mm, {p.surveys})" for p in plan.predictions),
+          flush=True)
 
 
 def run_one(args: tuple[str, int]) -> list[dict]:

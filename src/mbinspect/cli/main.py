@@ -26,6 +26,7 @@ examples:
   mbinspect reefs lines/ --workers 2 --out reefs-out        (a folder of line files, tiled on Dask)
   mbinspect soundings reefs-out/reefs.json 17 --out reef17.csv
   mbinspect simulate jacket --seed 1 --out sim-jacket
+  mbinspect plan design.csv --radius 0.75 --depth 21 --out plan-out   (the lines to sail)
   mbinspect info sim-jacket/soundings.xyz
   mbinspect info survey.csv --columns x,y,-,depth --depth-positive --json
 """

@@ -152,7 +152,7 @@ def _figures(result: PlanResult, folder: Path) -> dict[str, bytes]:
 def _candidates(result: PlanResult) -> str:
     rows = [{"layout": p.layout.name + (" (chosen)" if p.layout.name == result.chosen else ""),
              "what": p.layout.description, "lines": len(p.layout.lines),
-             "minutes": round(p.time_on_site_s / 60, 1),
+             "minutes": f"{p.time_on_site_s / 60:.1f}",
              "worst": number(1000 * p.worst_sigma, ".1f") if math.isfinite(p.worst_sigma) else "not measured",
              "meets": "yes" if p.meets_target else "no", "surveys": p.surveys,
              "unseen": sum(len(s) for _, s in p.unseen)} for p in result.predictions]
