@@ -47,7 +47,8 @@ class Prediction:
     """One candidate layout: its lines, time on site (s), predicted spacings, each top level's
     predicted 1-sigma, the sides of each pile no beam reached (sector names), the share of
     surveys in which each pile was not found, whether it meets the target, the surveys it
-    rests on and the factor by which their errors raised the 1-sigma the runs reported."""
+    rests on and the calibration: the factor from the 1-sigma the runs reported to the spread
+    of their errors."""
 
     layout: Layout
     time_on_site_s: float

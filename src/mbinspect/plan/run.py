@@ -110,21 +110,27 @@ def _rms(values: Sequence[float]) -> float:
     return float(np.sqrt(np.mean(v**2))) if len(v) else math.nan
 
 
-#: Pseudo-surveys of a calibrated 1-sigma (errors the size of the sigma) that temper the
-#: calibration a few trials show.
-PRIOR = 6
+#: Pseudo-spacings whose errors are the size of their reported 1-sigma (the piles' run is
+#: meant to report an honest 1-sigma) that temper the calibration a layout's few trials show.
+PRIOR = 12
+
+
+def _z2(trials: list[Trial]) -> list[float]:
+    """Each spacing's squared error in its reported sigmas, over ``trials``."""
+    return [(s[2] / s[3]) ** 2 for t in trials for s in t.spacings if s[3] > 0 and math.isfinite(s[3])]
 
 
 def _predict(layout: Layout, trials: list[Trial], piles: tuple[DesignPile, ...], options: PlanOptions,
              speed: float) -> Prediction:
     """A layout's prediction from its trials: each spacing's 1-sigma is the RMS of the 1-sigma
-    the runs reported (what a run of these lines will report), raised by the factor their
-    errors against the truth show it too small, pooled over every spacing and trial and
-    tempered by :data:`PRIOR`; a spacing some run did not measure is unmeasured (inf)."""
+    the runs reported, times the calibration its trials' errors against the truth show (the
+    RMS of each error in its reported sigmas) tempered by :data:`PRIOR`: the spread of the
+    errors a survey of these lines will make. A spacing some run did not measure is
+    unmeasured (inf)."""
     by_id = {p.id: p for p in piles}
     rows_of = {ab: [s for t in trials for s in t.spacings if (s[0], s[1]) == ab] for ab in pairs_of(piles)}
-    z2 = [(r[2] / r[3]) ** 2 for rows in rows_of.values() for r in rows if r[3] > 0 and math.isfinite(r[3])]
-    factor = max(1.0, math.sqrt((sum(z2) + PRIOR) / (len(z2) + PRIOR)))
+    z2 = _z2(trials)
+    factor = math.sqrt((sum(z2) + PRIOR) / (len(z2) + PRIOR))
     spacings = []
     for (a, b), rows in rows_of.items():
         reported, err = _rms([r[3] for r in rows]), _rms([r[2] for r in rows])
