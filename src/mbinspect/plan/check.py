@@ -22,7 +22,7 @@ from ..io import PointCloud
 from ..outputs import to_jsonable
 from ..piles import Design, locate_piles
 from ..pings import ping_origins
-from .predict import SECTORS
+from .predict import SECTORS, sector_counts
 from .results import PlanResult
 
 __all__ = ["PlanCheck", "sailed_lines", "check_survey"]
@@ -140,8 +140,7 @@ def _sides(cloud: PointCloud, piles: Any, radius: float) -> dict[int, tuple[int,
     for p in piles:
         r = np.hypot(xyz[:, 0] - p.x, xyz[:, 1] - p.y)
         m = (np.abs(r - p.radius) < 0.3) & (xyz[:, 2] < p.z - 0.2) & (xyz[:, 2] > p.z - 30.0)
-        b = np.degrees(np.arctan2(xyz[m, 0] - p.x, xyz[m, 1] - p.y)) % 360.0
-        out[p.id] = tuple(int(c) for c in np.bincount(((b + 22.5) // 45).astype(int) % 8, minlength=8))
+        out[p.id] = sector_counts(xyz[m, 0] - p.x, xyz[m, 1] - p.y)
     return out
 
 

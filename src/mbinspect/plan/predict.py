@@ -23,7 +23,7 @@ from ..piles import Design, locate_piles
 from ..simulate import LABELS, Line, Pile, Scene, Seabed, Sonar, Survey, survey
 from .layouts import Layout
 
-__all__ = ["DesignPile", "Setting", "Trial", "SECTORS", "run_trial", "NEAR", "RUN_ON"]
+__all__ = ["DesignPile", "Setting", "Trial", "SECTORS", "run_trial", "NEAR", "RUN_ON", "sector_counts"]
 
 #: Sectors round a pile, each 45 degrees, by the bearing (from the pile) of the face they hold.
 SECTORS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
@@ -98,10 +98,14 @@ def _sectors(scene: Scene, xyz: np.ndarray, label: np.ndarray, ident: np.ndarray
         run = (p.top_z - pts[:, 2]) / max(p.axis[2], 1e-9)
         cx = p.x + scene.origin[0] - run * p.axis[0]
         cy = p.y + scene.origin[1] - run * p.axis[1]
-        bearing = np.degrees(np.arctan2(pts[:, 0] - cx, pts[:, 1] - cy)) % 360.0
-        counts = np.bincount(((bearing + 22.5) // 45).astype(int) % 8, minlength=8)
-        out.append(tuple(int(c) for c in counts))
+        out.append(sector_counts(pts[:, 0] - cx, pts[:, 1] - cy))
     return tuple(out)
+
+
+def sector_counts(east: np.ndarray, north: np.ndarray) -> tuple[int, ...]:
+    """How many of the offsets (m east and north of a pile's axis) fall in each of :data:`SECTORS`."""
+    bearing = np.degrees(np.arctan2(east, north)) % 360.0
+    return tuple(int(c) for c in np.bincount(((bearing + 22.5) // 45).astype(int) % 8, minlength=8))
 
 
 def _abeam(line: tuple[tuple[float, float], tuple[float, float]], centres: np.ndarray
