@@ -88,7 +88,7 @@ def sailed_lines(cloud: PointCloud) -> list[dict[str, Any]]:
     origins, ok = ping_origins(cloud.xyz, np.asarray(ping), np.asarray(angle))
     line_f = cloud.fields.get("line")
     key = np.asarray(ping, np.int64) + (np.asarray(line_f, np.int64) << 32 if line_f is not None else 0)
-    uniq, first = np.unique(key[ok], return_index=True)
+    _, first = np.unique(key[ok], return_index=True)
     o = origins[ok][first]
     lines = (np.asarray(line_f)[ok][first] if line_f is not None else None)
     out = []

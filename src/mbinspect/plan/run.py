@@ -179,6 +179,10 @@ class _Search:
         for t in _run_jobs(jobs, self.options.workers, self.progress, self.done, self.total):
             self.trials[t.layout].append(t)
 
+    def seeds(self) -> list[int]:
+        """The seeds of a layout's simulated surveys (the same for every layout)."""
+        return [self.options.seed * 1000 + k for k in range(self.options.seeds)]
+
     def prediction(self, name: str) -> Prediction:
         return _predict(self.layouts[name], self.trials[name], self.piles, self.options,
                         self.options.speed * KNOT)
@@ -186,7 +190,7 @@ class _Search:
     def screen_then_confirm(self, layouts: list[Layout]) -> Prediction | None:
         """Each layout surveyed once; those not far from the target, fastest first, surveyed
         ``seeds`` times in all until one meets it (that one, else None)."""
-        seeds = [self.options.seed * 1000 + k for k in range(self.options.seeds)]
+        seeds = self.seeds()
         self.run(layouts, seeds[:1])
         hopeful = [self.prediction(lay.name) for lay in layouts]
         hopeful = [p for p in hopeful if p.worst_sigma <= SCREEN * self.options.target_sigma]
@@ -202,7 +206,7 @@ def _choose(search: _Search, layouts: list[Layout], given: bool) -> Prediction |
     """The layout that meets the target in the least time: among ``layouts`` each surveyed
     ``seeds`` times when ``given``, else screened, then the best two sailed both ways if none does."""
     if given:
-        search.run(layouts, [search.options.seed * 1000 + k for k in range(search.options.seeds)])
+        search.run(layouts, search.seeds())
         meeting = [p for p in (search.prediction(lay.name) for lay in layouts) if p.meets_target]
         return min(meeting, key=lambda p: (p.time_on_site_s, p.layout.name)) if meeting else None
     chosen = search.screen_then_confirm(layouts)
