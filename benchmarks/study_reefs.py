@@ -48,6 +48,11 @@ CONFIGS: dict[str, dict] = {
     "beam-1": {"beam_across_deg": 1.0},
     "beam-2": {"beam_across_deg": 2.0},
     "beam-1-leading-edge": {"beam_across_deg": 1.0, "detection": "leading-edge"},
+    # the same surveys, the reef chain told the beam (`beam_correction`: the bloom taken off)
+    "beam-0.5-told": {"beam_across_deg": 0.5},
+    "beam-1-told": {"beam_across_deg": 1.0},
+    "beam-2-told": {"beam_across_deg": 2.0},
+    "beam-1-leading-edge-told": {"beam_across_deg": 1.0, "detection": "leading-edge"},
 }
 METHODS = (("local", None), ("local", "design"), ("paper", None))
 NAMES = {("local", None): "ours", ("local", "design"): "ours + design", ("paper", None): "paper"}
@@ -56,6 +61,8 @@ NAMES = {("local", None): "ours", ("local", "design"): "ours + design", ("paper"
 def run_one(args: tuple[str, int]) -> list[dict]:
     name, seed = args
     sim = simulate("reef-field", seed=seed, **CONFIGS[name])
+    told = {"beam_correction": True, "beam_width_deg": CONFIGS[name]["beam_across_deg"],
+            "detection": CONFIGS[name].get("detection", "auto")} if name.endswith("-told") else {}
     truth = sim.truth["reefs"]
     ref = (np.array([[r["x"], r["y"]] for r in truth]), tuple(r["id"] for r in truth))
     kinds = CONFIGS[name].get("groups", "cross2,cross2,cross2,cross1").split(",")
@@ -63,7 +70,7 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     rows = []
     for method, use in METHODS:
         res = extract_reefs(sim.cloud, method=method, reference=ref, seed=seed,
-                            design=design if use else None)
+                            design=design if use else None, **(told if method == "local" else {}))
         ev = res.evaluation
         assert ev is not None
         found = {truth[j]["id"]: i for i, j, _ in ev.matches}

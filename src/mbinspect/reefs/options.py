@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ..beam import Beam
 from ..checks import fail
 from ..options import CHOICES, Options, crop_value, option, parse_crop
 from ..reef_designs import ReefDesign, parse_designs
@@ -58,6 +59,16 @@ class ReefOptions(Options):
     beam_width_deg: float = option(1.0, unit="deg", help="the sonar's beam width: a run stops when the "
                                    "footprint at the survey's depth is wider than objects of min_area",
                                    check="angle")
+    beam_correction: bool = option(False, help="take the beam's bloom off every footprint: the concrete's "
+                                   "echo heard beyond its edges through cones of beam_width_deg (off: "
+                                   "thin beams, the footprints as the soundings draw them)", check="bool")
+    detection: str = option("auto", choices="detection",
+                            help="the sonar's bottom detection, for the beam correction: amplitude, phase, "
+                            "leading-edge, or auto (amplitude near nadir, phase outside)")
+    beam_contrast_db: float | None = option(None, unit="dB", check="non_negative", kind=float,
+                                            help="how much stronger the reefs' echo is than the seabed's, "
+                                            "for the beam correction (none: from the soundings' intensity "
+                                            "where they have one, else 20 dB)")
     statistical_k: int = option(8, help="statistical filter neighbours on the reef points (0: off)",
                                 check="whole", metavar="K")
     statistical_ratio: float = option(3.0, help="statistical filter: standard deviations kept (mean "
@@ -130,6 +141,12 @@ class ReefOptions(Options):
     def check_together(self) -> None:
         if self.foot_height > self.min_height:
             raise fail("foot_height", self.foot_height, f"at most min_height ({self.min_height} m)")
+
+    def beam(self) -> Beam | None:
+        """The survey's beam for the footprint correction, or None when it is off."""
+        if not self.beam_correction:
+            return None
+        return Beam(beam_across_deg=self.beam_width_deg, detection=self.detection)
 
     @property
     def designs(self) -> tuple[ReefDesign, ...]:

@@ -13,9 +13,11 @@ from ..cloud import sources
 from ..errors import DataError, ParameterError
 from ..grid import extent_bytes, machine_memory, patched_spacing
 from ..io import PointCloud, pipeline_input
+from ..pings import ping_keys
 from ..seabed import GROUND_BAND
 from ..timing import StageTimes
 from ..version import __version__
+from .beam import Sight, contrast_db, sight
 from .detect import clean_reef_points, denoise, radius_keeping, reef_points
 from .ground import Seabed, fit_seabed
 from .group import number_reefs
@@ -230,11 +232,28 @@ def _objects(cloud: PointCloud, points: np.ndarray, rows: np.ndarray, is_reef: n
         return reefs, others, math.nan
     ping, line = (None if cloud.fields.get(k) is None else cloud.fields[k][rows] for k in ("ping", "line"))
     reefs, others, used_area, members = reef_islands(points, is_reef, seabed, height, opts, ping=ping,
-                                                     line=line)
+                                                     line=line, view=_sight(cloud, points, rows, is_reef,
+                                                                            height, opts))
     files = cloud.meta.get("files") or [cloud.source or "(array)"]
     reefs = [replace(r, sources=sources(rows[m], cloud.fields, files))
              for r, m in zip(reefs, members, strict=True)]
     return reefs, others, used_area
+
+
+def _sight(cloud: PointCloud, points: np.ndarray, rows: np.ndarray, is_reef: np.ndarray,
+           height: np.ndarray, opts: ReefOptions) -> Sight | None:
+    """How each sounding was seen, for the beam correction (None when it is off)."""
+    beam = opts.beam()
+    if beam is None:
+        return None
+    field = {k: None if cloud.fields.get(k) is None else cloud.fields[k][rows]
+             for k in ("ping", "beam_angle", "intensity")}
+    ping = None if field["ping"] is None else ping_keys({k: v[rows] for k, v in cloud.fields.items()
+                                                          if k in ("ping", "line", "file")})
+    contrast = opts.beam_contrast_db
+    if contrast is None:
+        contrast = contrast_db(field["intensity"], is_reef, height)
+    return sight(points, ping, field["beam_angle"], beam, contrast)
 
 
 def _score(reefs: list[Reef], reference: Any, opts: ReefOptions, warnings: list[str]

@@ -14,6 +14,7 @@ from ..grid import cell_index
 from ..noise import robust_sigma
 from ..seabed import GROUND_BAND
 from ..strays import cell_groups
+from .beam import Sight, unbloom_parts
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .footprint import Raster
 from .ground import Seabed
@@ -41,8 +42,8 @@ ISLAND_CELL = 10.0
 
 
 def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
-                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
-                 ) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
+                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None,
+                 view: Sight | None = None) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
     """:func:`single_reefs` on each group of reef points at least :data:`ISLAND_GAP` m from
     the others, so that time and memory follow the reef points, not their extent.
 
@@ -54,7 +55,7 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     cells, inverse = np.unique(np.column_stack([ci, cj]), axis=0, return_inverse=True)
     n, group = cell_groups(cells, int(math.ceil(ISLAND_GAP / ISLAND_CELL)) + 1)
     if n <= 1:
-        return single_reefs(points, is_reef, seabed, height, options, ping=ping, line=line)
+        return single_reefs(points, is_reef, seabed, height, options, ping=ping, line=line, view=view)
     # each sounding's cell, as one sortable key, and the soundings of a group's cells and
     # the cells around them (more than the raster's pad around any reef point)
     ai, aj = cell_index(points, 0.0, 0.0, ISLAND_CELL)
@@ -78,7 +79,8 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         flag[np.searchsorted(sub, rows[group_of_row == g])] = True
         r, o, area, m = single_reefs(points[sub], flag, seabed, height[sub], options,
                                      ping=None if ping is None else ping[sub],
-                                     line=None if line is None else line[sub])
+                                     line=None if line is None else line[sub],
+                                     view=None if view is None else view.subset(sub))
         reefs += r
         others += o
         areas.append(area)
@@ -87,8 +89,8 @@ def reef_islands(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
 
 
 def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height: np.ndarray,
-                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None
-                 ) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
+                 options: ReefOptions, ping: np.ndarray | None = None, line: np.ndarray | None = None,
+                 view: Sight | None = None) -> tuple[list[Reef], list[OtherObject], float, list[np.ndarray]]:
     """The single reefs among the reef points, each measured (our method).
 
     Footprints split into single reefs (:func:`split_reefs`), each measured
@@ -135,9 +137,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     members : list of ndarray of int
         Each reef's soundings: the reef points (rows of ``points``) in its footprint.
     """
-    parts, small, raster, used_area = split_reefs(points, is_reef, cell=options.cell,
-                                                  reef_area=options.reef_area, height=height,
-                                                  min_area=options.min_area, seed=options.seed)
+    parts, small, raster, used_area = _footprints(points, is_reef, height, options, view)
     reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef) for p in parts]
     designs = options.designs
     if designs:
@@ -191,6 +191,19 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
             kept.append(r)
             kept_members.append(m)
     return kept, others, used_area, kept_members
+
+
+def _footprints(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, options: ReefOptions,
+                view: Sight | None) -> tuple[list[np.ndarray], list[np.ndarray], Raster, float]:
+    """The footprints split into single reefs (:func:`split_reefs`), each with the beam's
+    bloom taken off when told the beam (:func:`~mbinspect.reefs.beam.unbloom_parts`)."""
+    parts, small, raster, used_area = split_reefs(points, is_reef, cell=options.cell,
+                                                  reef_area=options.reef_area, height=height,
+                                                  min_area=options.min_area, seed=options.seed)
+    if view is not None:
+        parts, raster = unbloom_parts(points, parts, raster, is_reef, height, view,
+                                      min_height=options.min_height)
+    return parts, small, raster, used_area
 
 
 def _members(points: np.ndarray, is_reef: np.ndarray, raster: Raster, parts: list[np.ndarray]

@@ -1,0 +1,221 @@
+"""Stage 5c: each footprint seen through the beam, and the bloom taken off its edges.
+
+A beam of finite width hears a reef's concrete before its axis reaches it: where the part of
+the cone that lies on the reef, weighted by the beam's pattern and by the concrete's echo over
+the seabed's (``beam_contrast_db``), outweighs the part on the seabed, the detection returns
+the reef's range, placed on the beam's axis beyond the reef's edge (a "bloom"; about the
+footprint's width at 20 dB). So the footprint the soundings draw is the true one blurred by
+the cone and cut where the reef's share of the echo passes ``1 / (1 + contrast)``.
+
+:func:`unbloom` inverts that one edge at a time: the beam's sub-rays (:meth:`Beam.grid`) laid
+on the raster at the reef's median range and beam angle (the across-track offsets stretched by
+``1 / cos`` of the beam angle on the level top) make a kernel; the footprint is eroded by the
+distance at which the eroded footprint, seen again through that kernel, covers the area the
+soundings drew. The cells taken off are the bloom; the soundings behind them are no longer the
+reef's (its top, its shape tests and its least depth use the rest).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from ..beam import Beam, cone_directions, detect, echo_energy, frame, window
+from ..pings import ping_geometry
+from .footprint import Raster
+from .measure import own_soundings
+
+__all__ = ["Sight", "sight", "reach", "structure", "contrast_db", "unbloom_parts", "DEFAULT_CONTRAST_DB"]
+
+#: The reef's echo over the seabed's (dB) when the soundings carry no intensity.
+DEFAULT_CONTRAST_DB = 20.0
+
+
+@dataclass(frozen=True, eq=False)
+class Sight:
+    """How each sounding was seen: its beam's origin and swath axis (NaN where unknown,
+    :func:`~mbinspect.pings.ping_geometry`), the beam, and the reef's echo over the seabed's."""
+
+    origins: np.ndarray
+    axes: np.ndarray
+    beam: Beam
+    contrast_db: float
+
+    def subset(self, rows: np.ndarray) -> Sight:
+        """The same for the soundings ``rows``."""
+        return Sight(self.origins[rows], self.axes[rows], self.beam, self.contrast_db)
+
+
+def contrast_db(intensity: np.ndarray | None, is_reef: np.ndarray, height: np.ndarray) -> float:
+    """The reefs' echo over the seabed's (dB): the median intensity of the reef soundings in
+    the upper half of their heights over that of the other soundings, within 0 to 30 dB;
+    :data:`DEFAULT_CONTRAST_DB` without intensities."""
+    if intensity is None or is_reef.sum() < 10 or (~is_reef).sum() < 10:
+        return DEFAULT_CONTRAST_DB
+    top = is_reef & (height >= 0.5 * float(np.nanmax(height[is_reef])))
+    c = float(np.nanmedian(intensity[top]) - np.nanmedian(intensity[~is_reef]))
+    return min(max(c, 0.0), 30.0) if math.isfinite(c) else DEFAULT_CONTRAST_DB
+
+
+def sight(points: np.ndarray, ping: np.ndarray | None, beam_angle: np.ndarray | None, beam: Beam,
+          contrast: float) -> Sight:
+    """Each sounding's beam origin and swath axis from its ping's soundings; where the pings are
+    unknown, a transducer at the water surface above the sounding (elevation 0) and no axis."""
+    pts = np.asarray(points, np.float64)
+    if ping is not None and beam_angle is not None:
+        origins, axes, _ = ping_geometry(pts, ping, beam_angle)
+    else:
+        origins, axes = np.full_like(pts, np.nan), np.full_like(pts, np.nan)
+    unknown = ~np.isfinite(origins[:, 0])
+    origins[unknown] = np.column_stack([pts[unknown, :2], np.zeros(int(unknown.sum()))])
+    return Sight(origins, axes, beam, contrast)
+
+
+#: Edge directions at which the bloom's reach is cast (the outward normal turned in equal steps
+#: from "away from the sonar across the track").
+DIRECTIONS = 16
+
+
+def _edge_hits(normal: np.ndarray, s: np.ndarray, d: np.ndarray, top: float, bed: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each sub-ray (directions ``d`` (S, 3) from the origin, the axis first) first meets
+    a reef whose level top (elevation ``top``) ends at a straight edge of outward plan
+    ``normal``, ``s`` (M,) before the axis's crossing of the top, over a level seabed at
+    ``bed``: ranges, cosines of incidence and whether on the reef, (M, S) each."""
+    t_top, t_bed = top / d[:, 2], bed / d[:, 2]
+    along_n = d[:, :2] @ normal  # each sub-ray's plan travel along the normal per metre of range
+    at_top = along_n * t_top - along_n[0] * t_top[0]  # its crossing of the top, from the axis's
+    edge = -s[:, None]
+    on_top = at_top[None, :] < edge
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # below the top the sub-ray moves on along the normal; it meets the wall where it crosses the edge
+        t_wall = (edge + along_n[0] * t_top[0]) / along_n[None, :]
+    wall = ~on_top & (along_n[None, :] < 0) & (t_wall > t_top[None, :]) & (t_wall < t_bed[None, :])
+    rng = np.where(on_top, t_top[None, :], np.where(wall, t_wall, t_bed[None, :]))
+    cos = np.where(wall, -along_n[None, :], -d[None, :, 2] + 0 * rng)
+    return rng, cos, on_top | wall
+
+
+def reach(beam: Beam, rng: float, cos_angle: float, height: float, contrast: float, *,
+          min_height: float = 0.3, directions: int = DIRECTIONS) -> np.ndarray:
+    """How far beyond a straight edge of a reef ``height`` m tall, whose top the beam axis
+    meets ``rng`` m away at ``arccos(cos_angle)`` from vertical, the soundings still stand at
+    least ``min_height`` over the seabed (m), for edges facing ``directions`` ways (the first
+    away from the sonar across the track, then turning toward the track ahead): the cones cast
+    at the edge set ever farther from the axis and detected as the sonar does
+    (:func:`mbinspect.beam.detect`).
+
+    Examples
+    --------
+    >>> r = reach(Beam(beam_across_deg=1.0), 20.0, 0.8, 1.5, 18.0, directions=4)
+    >>> bool(0.3 < r[1] < 0.36 and r[2] < 0.1)  # along the track a full footprint; little toward the sonar
+    True
+    """
+    angle = math.acos(min(max(cos_angle, 0.05), 1.0))
+    axis = np.array([[math.sin(angle), 0.0, -math.cos(angle)]])
+    a, b = frame(axis, np.array([[math.cos(angle), 0.0, math.sin(angle)]]))
+    d = np.vstack([axis, cone_directions(beam, axis, a, b)])
+    top = -rng * math.cos(angle)
+    bed = top - height
+    s = np.linspace(0.0, 1.2 * rng * beam.spread() / max(cos_angle, 0.2), 61)
+    modes = np.repeat(beam.modes(np.array([angle])), len(s))
+    half = window(beam, np.full(len(s), rng), np.full(len(s), cos_angle))
+    out = np.zeros(directions)
+    for k in range(directions):
+        phi = 2 * math.pi * k / directions
+        normal = np.array([math.cos(phi), math.sin(phi)])
+        r, cos, reef = _edge_hits(normal, s, d, top, bed)
+        strength = np.where(reef[:, 1:], 10 ** (contrast / 10), 1.0)
+        energy = echo_energy(beam, strength.ravel(), cos[:, 1:].ravel()).reshape(len(s), -1)
+        got = detect(r[:, 1:], energy, cos[:, 1:], beam, modes, half).range
+        beyond = got * (d[0, :2] @ normal) - rng * (d[0, :2] @ normal) + s  # the sounding past the edge
+        stands = np.isfinite(got) & (got * axis[0, 2] - bed >= min_height)
+        out[k] = max(float(beyond[stands].max()), 0.0) if stands.any() else 0.0
+    return out
+
+
+def seen_from(points: np.ndarray, rows: np.ndarray, view: Sight
+              ) -> tuple[float, float, tuple[float, float] | None, bool]:
+    """A footprint's median range (m) and cosine of the beam angle; the plan unit vector
+    pointing away from the sonar across the track (None when its soundings' pings are unknown
+    or come from lines of several headings); whether they were all seen from that one side."""
+    ray = points[rows] - view.origins[rows]
+    rng = np.linalg.norm(ray, axis=1)
+    cos = np.abs(ray[:, 2]) / np.maximum(rng, 1e-9)
+    ax = view.axes[rows, :2]
+    ok = np.isfinite(ax[:, 0])
+    if ok.sum() < 0.5 * len(rows):
+        return float(np.median(rng)), float(np.median(cos)), None, False
+    # headings folded onto a half turn (a line sailed either way sees the same)
+    ang = 2 * np.arctan2(ax[ok, 1], ax[ok, 0])
+    c, s = float(np.mean(np.cos(ang))), float(np.mean(np.sin(ang)))
+    if math.hypot(c, s) < 0.9:
+        return float(np.median(rng)), float(np.median(cos)), None, False
+    half = 0.5 * math.atan2(s, c)
+    out = np.array([math.cos(half), math.sin(half)])
+    side = np.sign(ray[ok, :2] @ out)
+    share = float(np.mean(side > 0))
+    if share < 0.5:
+        out, share = -out, 1 - share
+    return float(np.median(rng)), float(np.median(cos)), (float(out[0]), float(out[1])), share >= 0.8
+
+
+def structure(reaches: np.ndarray, outward: tuple[float, float] | None, one_side: bool, cell: float
+              ) -> np.ndarray:
+    """The bloom's shape as a raster structuring element: the offsets within each edge
+    direction's reach (:func:`reach`; the first away from the sonar), turned to the track
+    (``outward``); each direction's and its mirror's larger where the reef was seen from both
+    sides, a disc of the mean reach where the track's heading is unknown."""
+    n_dir = len(reaches)
+    phis = 2 * np.pi * np.arange(n_dir) / n_dir
+    if outward is None:
+        reaches = np.full(n_dir, float(np.mean(reaches)))
+    elif not one_side:
+        mirror = (n_dir // 2 - np.arange(n_dir)) % n_dir  # the same edge seen from the other side
+        reaches = np.maximum(reaches, reaches[mirror])
+    n = int(math.ceil(float(reaches.max()) / cell))
+    jj, ii = np.mgrid[-n:n + 1, -n:n + 1] * cell
+    ox, oy = outward or (1.0, 0.0)
+    p, q = ii * ox + jj * oy, -ii * oy + jj * ox  # across (outward) and along the track
+    out = np.ones(ii.shape, bool)
+    for phi, r in zip(phis, reaches, strict=True):
+        out &= p * math.cos(phi) + q * math.sin(phi) <= r + 1e-9
+    out[n, n] = True
+    return out
+
+
+def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, is_reef: np.ndarray,
+                  height: np.ndarray, view: Sight, *, min_height: float = 0.3
+                  ) -> tuple[list[np.ndarray], Raster]:
+    """Every part's footprint with its bloom taken off: eroded by the bloom's shape
+    (:func:`reach`, :func:`structure`) at the part's range, beam angle, height and heading.
+    Returns the parts' cells (flat raster indices) and the raster with the bloom's cells
+    unlabelled."""
+    ny, nx = raster.labels.shape
+    labels = raster.labels.copy()
+    out = []
+    for cells in parts:
+        rows = own_soundings(cells, raster, is_reef)
+        if len(rows) < 3:
+            out.append(cells)
+            continue
+        rng, cos, outward, one_side = seen_from(points, rows, view)
+        tall = float(np.percentile(height[rows], 95))
+        se = structure(reach(view.beam, rng, cos, tall, view.contrast_db, min_height=min_height),
+                       outward, one_side, raster.cell)
+        cj, ci = np.divmod(cells, nx)
+        j0, i0 = int(cj.min()), int(ci.min())
+        pad = se.shape[0]
+        mask = np.zeros((int(cj.max()) - j0 + 1 + 2 * pad, int(ci.max()) - i0 + 1 + 2 * pad), bool)
+        mask[cj - j0 + pad, ci - i0 + pad] = True
+        core = ndimage.binary_erosion(ndimage.binary_closing(mask, structure=se), structure=se)
+        keep = core[cj - j0 + pad, ci - i0 + pad]
+        if not keep.any():
+            out.append(cells)
+            continue
+        labels.ravel()[cells[~keep]] = 0
+        out.append(cells[keep])
+    return out, Raster(raster.x0, raster.y0, raster.cell, labels, raster.nearest)
