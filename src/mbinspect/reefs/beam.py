@@ -55,7 +55,7 @@ def contrast_db(intensity: np.ndarray | None, is_reef: np.ndarray, height: np.nd
     :data:`DEFAULT_CONTRAST_DB` without intensities."""
     if intensity is None or is_reef.sum() < 10 or (~is_reef).sum() < 10:
         return DEFAULT_CONTRAST_DB
-    top = is_reef & (height >= 0.5 * float(np.nanmax(height[is_reef])))
+    top = is_reef & (height >= 0.5 * float(np.nanpercentile(height[is_reef], 95)))
     c = float(np.nanmedian(intensity[top]) - np.nanmedian(intensity[~is_reef]))
     return min(max(c, 0.0), 30.0) if math.isfinite(c) else DEFAULT_CONTRAST_DB
 
@@ -77,6 +77,9 @@ def sight(points: np.ndarray, ping: np.ndarray | None, beam_angle: np.ndarray | 
 #: Edge directions at which the bloom's reach is cast (the outward normal turned in equal steps
 #: from "away from the sonar across the track").
 DIRECTIONS = 16
+#: Sub-rays per axis the reach is cast with: a real beam's pattern is continuous, and with
+#: few sub-rays the reach jumps by half a footprint as the contrast crosses a step.
+FINE = 9
 
 
 def _edge_hits(normal: np.ndarray, s: np.ndarray, d: np.ndarray, top: float, bed: float
@@ -114,6 +117,7 @@ def reach(beam: Beam, rng: float, cos_angle: float, height: float, contrast: flo
     >>> bool(0.3 < r[1] < 0.36 and r[2] < 0.1)  # along the track a full footprint; little toward the sonar
     True
     """
+    beam = beam.replace(sub_rays=max(beam.sub_rays, FINE))  # the pattern near continuous
     angle = math.acos(min(max(cos_angle, 0.05), 1.0))
     axis = np.array([[math.sin(angle), 0.0, -math.cos(angle)]])
     a, b = frame(axis, np.array([[math.cos(angle), 0.0, math.sin(angle)]]))
