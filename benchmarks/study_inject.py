@@ -120,10 +120,12 @@ def site(cloud: PointCloud, largest: float = 6.0) -> tuple[float, float, float]:
     return float(cx), float(cy), min(largest, float((hi - lo).min()) / 2)
 
 
-def _reef_row(name: str, cloud: PointCloud, side: float, placements: int, beam: Beam | None) -> list[str]:
-    """Inject the four reefs at each placement and score ``extract_reefs`` (with designs)."""
+def _reef_row(name: str, cloud: PointCloud, side: float, placements: int, beam: Beam | None,
+              told: dict | None = None) -> list[str]:
+    """Inject the four reefs at each placement and score ``extract_reefs`` (with designs; told
+    the beam with ``told``: ``beam_correction`` and its options)."""
     cx, cy = np.median(cloud.xyz[:, :2], axis=0)
-    hits, tp, fp, fn, others, dh, unplaced, stopped = [], 0, 0, 0, 0, [], 0, 0
+    hits, tp, fp, fn, others, dh, da, unplaced, stopped = [], 0, 0, 0, 0, [], [], 0, 0
     for k in range(placements):
         try:
             inj = inject(cloud.xyz, cloud.fields, reefs=_reef_square(cx, cy, side, np.random.default_rng(k)),
@@ -137,7 +139,8 @@ def _reef_row(name: str, cloud: PointCloud, side: float, placements: int, beam: 
         try:
             # two designs are built at 0.7 of their size here: a tolerance that admits them
             res = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields)), reference=ref,
-                                design=",".join(k for k, _ in REEFS), design_scale_tolerance=0.35)
+                                design=",".join(k for k, _ in REEFS), design_scale_tolerance=0.35,
+                                **(told or {}))
         except MBInspectError:
             stopped += 1
             fn += len(truth)
@@ -145,10 +148,12 @@ def _reef_row(name: str, cloud: PointCloud, side: float, placements: int, beam: 
         ev = res.evaluation
         tp, fp, fn, others = tp + ev.tp, fp + ev.fp, fn + ev.fn, others + len(res.others)
         dh += [res.reefs[i].height - truth[j]["height"] for i, j, _ in ev.matches]
+        da += [res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches]
     per = f"{int(np.median(hits))}" if hits else "-"
     return [name[:30], f"{-np.median(cloud.xyz[:, 2]):.0f}", f"{side:.1f}", per, f"{tp}/{tp + fn}", f"{fp}",
             f"{others}", f"{100 * np.median(np.abs(dh)):.1f}" if dh else "-",
-            f"{100 * np.max(np.abs(dh)):.1f}" if dh else "-", f"{stopped}", f"{unplaced}"]
+            f"{100 * np.max(np.abs(dh)):.1f}" if dh else "-", f"{100 * np.mean(da):+.1f} %" if da else "-",
+            f"{stopped}", f"{unplaced}"]
 
 
 #: Along-track step (m) between the pings of a file recorded with the vessel holding station
@@ -217,9 +222,12 @@ def main() -> None:
         for name, cloud, layout in files:
             if layout != "square":
                 continue
-            reef_rows.append(_reef_row(name, cloud, site(cloud)[2], args.placements, beam))
+            reef_told = ({"beam_correction": True, "beam_width_deg": args.beam, "detection": args.detection,
+                          "beam_contrast_db": 20.0} if beam and not args.untold else None)
+            reef_rows.append(_reef_row(name, cloud, site(cloud)[2], args.placements, beam, reef_told))
         print(table(["file", "depth m", "side m", "soundings per reef (median)", "reefs found", "false reefs",
-                     "others", "height err median cm", "height err max cm", "runs stopped", "not placed"],
+                     "others", "height err median cm", "height err max cm", "area err mean", "runs stopped",
+                     "not placed"],
                     reef_rows))
         print()
     if "piles" not in args.objects:

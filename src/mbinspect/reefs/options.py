@@ -57,7 +57,8 @@ class ReefOptions(Options):
                                   "fixed noise_radius; the paper's method keeps it fixed)",
                                   check="non_negative", metavar="F")
     beam_width_deg: float = option(1.0, unit="deg", help="the sonar's beam width: a run stops when the "
-                                   "footprint at the survey's depth is wider than objects of min_area",
+                                   "footprint at the survey's depth is wider than objects of min_area; "
+                                   "with beam_correction, the cones the bloom is cast through",
                                    check="angle")
     beam_correction: bool = option(False, help="take the beam's bloom off every footprint: the concrete's "
                                    "echo heard beyond its edges through cones of beam_width_deg (off: "

@@ -1,0 +1,58 @@
+"""The beam's bloom taken off reef footprints (issue 28, item 4): against simulator truth."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mbinspect.beam import Beam
+from mbinspect.reefs import extract_reefs
+from mbinspect.reefs.beam import reach, structure
+from mbinspect.simulate import simulate
+
+
+def test_reach_follows_the_footprint():
+    r = reach(Beam(beam_across_deg=1.0), 20.0, 1.0, 1.5, 20.0, directions=4)
+    # at nadir, every edge blooms by about the footprint (20 m x tan 1 deg = 0.35 m)
+    assert np.all(np.abs(r - 20 * math.tan(math.radians(1.0))) < 0.06)
+    oblique = reach(Beam(beam_across_deg=1.0), 20.0, 0.6, 1.5, 20.0, directions=4)
+    assert oblique[2] < 0.05 < oblique[0]  # the near side (a lit wall) hardly blooms; the far side does
+    half = reach(Beam(beam_across_deg=0.5), 20.0, 1.0, 1.5, 20.0, directions=4)
+    assert np.all(half < 0.6 * r)
+    weak = reach(Beam(beam_across_deg=1.0), 20.0, 1.0, 1.5, 3.0, directions=4)
+    assert np.all(weak < 0.6 * r)  # a reef hardly brighter than the seabed blooms less
+
+
+def test_structure_seen_from_both_sides_is_symmetric():
+    reaches = np.array([0.3, 0.2, 0.4, 0.2, 0.0, 0.2, 0.4, 0.2])
+    one = structure(reaches, (1.0, 0.0), True, 0.05)
+    both = structure(reaches, (1.0, 0.0), False, 0.05)
+    n = one.shape[0] // 2
+    assert one[n, n + 5] and not one[n, n - 5]  # out past the far side only
+    assert both[n, n + 5] and both[n, n - 5]
+
+
+@pytest.fixture(scope="module")
+def field():
+    sim = simulate("reef-field", seed=3, per_group=4, groups="cube,cross2", beam_across_deg=1.0, close_pairs=0,
+                   touching_pairs=0, boulders=0, debris=0)
+    truth = sim.truth["reefs"]
+    ref = (np.array([[t["x"], t["y"]] for t in truth]), tuple(t["id"] for t in truth))
+    return sim, truth, ref
+
+
+def _area_errors(res, truth):
+    ev = res.evaluation
+    return ev, np.array([res.reefs[i].area / truth[j]["area"] - 1 for i, j, _ in ev.matches])
+
+
+def test_told_the_beam_the_footprints_lose_their_bloom(field):
+    sim, truth, ref = field
+    ev, raw = _area_errors(extract_reefs(sim.cloud, reference=ref), truth)
+    ev_told, told = _area_errors(extract_reefs(sim.cloud, reference=ref, beam_correction=True,
+                                               beam_width_deg=1.0), truth)
+    assert raw.mean() > 0.2  # the bloom: every footprint too large
+    assert ev_told.tp == len(truth) and abs(told.mean()) < 0.1
+    assert np.mean(np.abs(told) < 0.2) >= 0.75
