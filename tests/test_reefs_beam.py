@@ -36,8 +36,8 @@ def test_structure_seen_from_both_sides_is_symmetric():
 
 @pytest.fixture(scope="module")
 def field():
-    sim = simulate("reef-field", seed=3, per_group=4, groups="cube,cross2", beam_across_deg=1.0, close_pairs=0,
-                   touching_pairs=0, boulders=0, debris=0)
+    sim = simulate("reef-field", seed=3, per_group=4, groups="cube,cross2", beam_across_deg=1.0,
+                   close_pairs=0, touching_pairs=0, boulders=0, debris=0)
     truth = sim.truth["reefs"]
     ref = (np.array([[t["x"], t["y"]] for t in truth]), tuple(t["id"] for t in truth))
     return sim, truth, ref
