@@ -114,7 +114,7 @@ def reach(beam: Beam, rng: float, cos_angle: float, height: float, contrast: flo
     Examples
     --------
     >>> r = reach(Beam(beam_across_deg=1.0), 20.0, 0.8, 1.5, 18.0, directions=4)
-    >>> bool(0.3 < r[1] < 0.36 and r[2] < 0.1)  # along the track a full footprint; little toward the sonar
+    >>> bool(0.2 < r[1] < 0.36 and r[2] < 0.05)  # along: most of a footprint; toward the sonar: little
     True
     """
     beam = beam.replace(sub_rays=max(beam.sub_rays, FINE))  # the pattern near continuous
