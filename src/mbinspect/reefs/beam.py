@@ -80,6 +80,9 @@ DIRECTIONS = 16
 #: Sub-rays per axis the reach is cast with: a real beam's pattern is continuous, and with
 #: few sub-rays the reach jumps by half a footprint as the contrast crosses a step.
 FINE = 9
+#: Sub-cells per raster cell on a side the footprint is eroded on: a reach of 0.1-0.2 m (a
+#: narrow beam) is one or two 0.1 m cells, and whole cells would take up to one too few.
+SUB = 2
 
 
 def _edge_hits(normal: np.ndarray, s: np.ndarray, d: np.ndarray, top: float, bed: float
@@ -191,6 +194,21 @@ def structure(reaches: np.ndarray, outward: tuple[float, float] | None, one_side
     return out
 
 
+def _eroded(cells: np.ndarray, nx: int, se: np.ndarray) -> np.ndarray:
+    """Which of a part's cells (flat indices in rows of ``nx``) stay once the part is closed and
+    eroded by ``se``, a structuring element on cells :data:`SUB` times finer (a cell stays
+    when at least half its sub-cells do)."""
+    cj, ci = np.divmod(cells, nx)
+    j0, i0 = int(cj.min()), int(ci.min())
+    pad = -(-se.shape[0] // SUB)
+    mask = np.zeros((int(cj.max()) - j0 + 1 + 2 * pad, int(ci.max()) - i0 + 1 + 2 * pad), bool)
+    mask[cj - j0 + pad, ci - i0 + pad] = True
+    fine = np.kron(mask, np.ones((SUB, SUB), bool))
+    core = ndimage.binary_erosion(ndimage.binary_closing(fine, structure=se), structure=se)
+    share = core.reshape(mask.shape[0], SUB, mask.shape[1], SUB).mean(axis=(1, 3))
+    return share[cj - j0 + pad, ci - i0 + pad] >= 0.5
+
+
 def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, is_reef: np.ndarray,
                   height: np.ndarray, view: Sight, *, min_height: float = 0.3
                   ) -> tuple[list[np.ndarray], Raster]:
@@ -209,14 +227,8 @@ def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, i
         rng, cos, outward, one_side = seen_from(points, rows, view)
         tall = float(np.percentile(height[rows], 95))
         se = structure(reach(view.beam, rng, cos, tall, view.contrast_db, min_height=min_height),
-                       outward, one_side, raster.cell)
-        cj, ci = np.divmod(cells, nx)
-        j0, i0 = int(cj.min()), int(ci.min())
-        pad = se.shape[0]
-        mask = np.zeros((int(cj.max()) - j0 + 1 + 2 * pad, int(ci.max()) - i0 + 1 + 2 * pad), bool)
-        mask[cj - j0 + pad, ci - i0 + pad] = True
-        core = ndimage.binary_erosion(ndimage.binary_closing(mask, structure=se), structure=se)
-        keep = core[cj - j0 + pad, ci - i0 + pad]
+                       outward, one_side, raster.cell / SUB)
+        keep = _eroded(cells, nx, se)
         if not keep.any():
             out.append(cells)
             continue
