@@ -7,12 +7,15 @@ the reef's range, placed on the beam's axis beyond the reef's edge (a "bloom"; a
 footprint's width at 20 dB). So the footprint the soundings draw is the true one blurred by
 the cone and cut where the reef's share of the echo passes ``1 / (1 + contrast)``.
 
-:func:`unbloom` inverts that one edge at a time: the beam's sub-rays (:meth:`Beam.grid`) laid
-on the raster at the reef's median range and beam angle (the across-track offsets stretched by
-``1 / cos`` of the beam angle on the level top) make a kernel; the footprint is eroded by the
-distance at which the eroded footprint, seen again through that kernel, covers the area the
-soundings drew. The cells taken off are the bloom; the soundings behind them are no longer the
-reef's (its top, its shape tests and its least depth use the rest).
+:func:`reach` casts the cone (the sonar's own detection, :mod:`mbinspect.beam`) at a straight
+edge of a level-topped reef set ever farther from the beam's axis, at the footprint's median
+range, beam angle and height, for :data:`DIRECTIONS` edge directions turned from the lines'
+heading, and records how far past the edge the soundings still stand on the reef: along the
+track about a footprint, on the far side less, on the near side (where the lit wall answers
+first) almost nothing. :func:`structure` makes those reaches a structuring element, and
+:func:`unbloom_parts` closes and erodes each footprint by it (on cells :data:`SUB` times
+finer than the raster's). The cells taken off are the bloom; the soundings behind them are no
+longer the reef's (its top, its shape tests and its least depth use the rest).
 """
 
 from __future__ import annotations
