@@ -53,6 +53,13 @@ CONFIGS: dict[str, dict] = {
     "beam-1-told": {"beam_across_deg": 1.0},
     "beam-2-told": {"beam_across_deg": 2.0},
     "beam-1-leading-edge-told": {"beam_across_deg": 1.0, "detection": "leading-edge"},
+    # touching and close pairs, and rocks among cubes, through 1° cones (issue 28, item 4)
+    "touching-beam-1": {"touching_pairs": 6, "close_pairs": 6, "beam_across_deg": 1.0},
+    "touching-beam-1-told": {"touching_pairs": 6, "close_pairs": 6, "beam_across_deg": 1.0},
+    "rocky+cubes-beam-1": {"groups": "cross2,cube,hollow", "seabed": -25.0, "rocks": 20, "burial_max": 0.5,
+                           "beam_across_deg": 1.0},
+    "rocky+cubes-beam-1-told": {"groups": "cross2,cube,hollow", "seabed": -25.0, "rocks": 20,
+                                "burial_max": 0.5, "beam_across_deg": 1.0},
 }
 METHODS = (("local", None), ("local", "design"), ("paper", None))
 NAMES = {("local", None): "ours", ("local", "design"): "ours + design", ("paper", None): "paper"}
