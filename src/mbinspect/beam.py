@@ -232,3 +232,23 @@ def echo_energy(beam: Beam, strength: np.ndarray, cos_inc: np.ndarray) -> np.nda
     _, _, weight = beam.grid()
     lambert = np.where(cos_inc > 0.03, cos_inc, 0.0)
     return np.tile(weight, len(strength) // len(weight)) * strength * lambert
+
+
+#: An object's echo over the seabed's (dB) where the soundings carry no intensity to measure it.
+DEFAULT_CONTRAST_DB = 20.0
+
+
+def echo_contrast_db(on: np.ndarray, off: np.ndarray) -> float:
+    """An object's echo over the seabed's (dB): the median intensity (dB) of the soundings on it
+    (``on``) over that of the seabed's (``off``), within 0 to 30 dB;
+    :data:`DEFAULT_CONTRAST_DB` where either is empty or the medians are not finite.
+
+    Examples
+    --------
+    >>> echo_contrast_db(np.array([-12.0, -11.0, -13.0]), np.array([-30.0, -29.0]))
+    17.5
+    """
+    if len(on) == 0 or len(off) == 0:
+        return DEFAULT_CONTRAST_DB
+    c = float(np.nanmedian(on) - np.nanmedian(off))
+    return min(max(c, 0.0), 30.0) if math.isfinite(c) else DEFAULT_CONTRAST_DB

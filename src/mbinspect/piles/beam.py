@@ -35,16 +35,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..beam import Beam, cone_directions, detect, echo_energy, frame, window
+from ..beam import (
+    DEFAULT_CONTRAST_DB,
+    Beam,
+    cone_directions,
+    detect,
+    echo_contrast_db,
+    echo_energy,
+    frame,
+    window,
+)
 from ..fit import Cylinder
 from ..geometry import ray_cylinder
 from ..pings import ping_geometry
 from .results import PileFit
 
 __all__ = ["PileModel", "BeamCorrection", "through_beam", "pile_models", "beam_contrast"]
-
-#: The steel's echo over the seabed's (dB) where the soundings carry no intensity.
-DEFAULT_CONTRAST_DB = 20.0
 
 
 @dataclass(frozen=True)
@@ -190,8 +196,8 @@ def pile_models(piles: Sequence[PileFit], cylinders: dict[int, Cylinder], pts: n
 
 def beam_contrast(intensity: np.ndarray | None, pts: np.ndarray, piles: Sequence[PileFit]) -> float:
     """The piles' echo over the seabed's (dB): the median intensity (dB) of the soundings on
-    their walls over that of the seabed 1 to 4 m out, within 0 to 30 dB;
-    :data:`DEFAULT_CONTRAST_DB` without intensities."""
+    their walls over that of the seabed 1 to 4 m out (:func:`~mbinspect.beam.echo_contrast_db`);
+    :data:`~mbinspect.beam.DEFAULT_CONTRAST_DB` without intensities."""
     if intensity is None or not piles:
         return DEFAULT_CONTRAST_DB
     on, off = np.zeros(len(pts), bool), np.zeros(len(pts), bool)
@@ -199,7 +205,4 @@ def beam_contrast(intensity: np.ndarray | None, pts: np.ndarray, piles: Sequence
         plan = np.hypot(pts[:, 0] - p.x, pts[:, 1] - p.y)
         on |= (np.abs(plan - p.radius) < 0.1) & (pts[:, 2] < p.z - 0.2)
         off |= (plan > p.radius + 1.0) & (plan < p.radius + 4.0)
-    if not on.any() or not off.any():
-        return DEFAULT_CONTRAST_DB
-    c = float(np.nanmedian(intensity[on]) - np.nanmedian(intensity[off]))
-    return min(max(c, 0.0), 30.0) if math.isfinite(c) else DEFAULT_CONTRAST_DB
+    return echo_contrast_db(intensity[on], intensity[off])

@@ -26,15 +26,22 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from ..beam import Beam, cone_directions, detect, echo_energy, frame, window
+from ..beam import (
+    DEFAULT_CONTRAST_DB,
+    Beam,
+    cone_directions,
+    detect,
+    echo_contrast_db,
+    echo_energy,
+    frame,
+    window,
+)
 from ..pings import ping_geometry
 from .footprint import Raster
 from .measure import own_soundings
 
-__all__ = ["Sight", "sight", "reach", "structure", "contrast_db", "unbloom_parts", "DEFAULT_CONTRAST_DB"]
+__all__ = ["Sight", "sight", "reach", "structure", "contrast_db", "unbloom_parts"]
 
-#: The reef's echo over the seabed's (dB) when the soundings carry no intensity.
-DEFAULT_CONTRAST_DB = 20.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,14 +60,13 @@ class Sight:
 
 
 def contrast_db(intensity: np.ndarray | None, is_reef: np.ndarray, height: np.ndarray) -> float:
-    """The reefs' echo over the seabed's (dB): the median intensity of the reef soundings in
-    the upper half of their heights over that of the other soundings, within 0 to 30 dB;
-    :data:`DEFAULT_CONTRAST_DB` without intensities."""
+    """The reefs' echo over the seabed's (dB, :func:`~mbinspect.beam.echo_contrast_db`): the
+    reef soundings in the upper half of their heights against the other soundings;
+    :data:`~mbinspect.beam.DEFAULT_CONTRAST_DB` without intensities or with fewer than 10 of either."""
     if intensity is None or is_reef.sum() < 10 or (~is_reef).sum() < 10:
         return DEFAULT_CONTRAST_DB
     top = is_reef & (height >= 0.5 * float(np.nanpercentile(height[is_reef], 95)))
-    c = float(np.nanmedian(intensity[top]) - np.nanmedian(intensity[~is_reef]))
-    return min(max(c, 0.0), 30.0) if math.isfinite(c) else DEFAULT_CONTRAST_DB
+    return echo_contrast_db(intensity[top], intensity[~is_reef])
 
 
 def sight(points: np.ndarray, ping: np.ndarray | None, beam_angle: np.ndarray | None, beam: Beam,

@@ -246,14 +246,14 @@ def _sight(cloud: PointCloud, points: np.ndarray, rows: np.ndarray, is_reef: np.
     beam = opts.beam()
     if beam is None:
         return None
-    field = {k: None if cloud.fields.get(k) is None else cloud.fields[k][rows]
-             for k in ("ping", "beam_angle", "intensity")}
-    ping = None if field["ping"] is None else ping_keys({k: v[rows] for k, v in cloud.fields.items()
-                                                          if k in ("ping", "line", "file")})
+    angle, intensity = (None if cloud.fields.get(k) is None else cloud.fields[k][rows]
+                        for k in ("beam_angle", "intensity"))
+    ping = None if cloud.fields.get("ping") is None else ping_keys(
+        {k: v[rows] for k, v in cloud.fields.items() if k in ("ping", "line", "file")})
     contrast = opts.beam_contrast_db
     if contrast is None:
-        contrast = contrast_db(field["intensity"], is_reef, height)
-    return sight(points, ping, field["beam_angle"], beam, contrast)
+        contrast = contrast_db(intensity, is_reef, height)
+    return sight(points, ping, angle, beam, contrast)
 
 
 def _score(reefs: list[Reef], reference: Any, opts: ReefOptions, warnings: list[str]
