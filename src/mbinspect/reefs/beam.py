@@ -110,7 +110,7 @@ def _edge_hits(normal: np.ndarray, s: np.ndarray, d: np.ndarray, top: float, bed
         t_wall = (edge + along_n[0] * t_top[0]) / along_n[None, :]
     wall = ~on_top & (along_n[None, :] < 0) & (t_wall > t_top[None, :]) & (t_wall < t_bed[None, :])
     rng = np.where(on_top, t_top[None, :], np.where(wall, t_wall, t_bed[None, :]))
-    cos = np.where(wall, -along_n[None, :], -d[None, :, 2] + 0 * rng)
+    cos = np.where(wall, -along_n[None, :], -d[None, :, 2])  # (M, S) by broadcasting
     return rng, cos, on_top | wall
 
 
