@@ -49,8 +49,10 @@ PLANS: dict[str, dict] = {}
 def _design(preset: str) -> Design:
     rows = simulate(preset, seed=0, ping_spacing=5.0).truth["design"]
     groups = {r["id"]: r.get("group", 1) for r in rows}
+    tilts = {r["id"]: (r["tilt_deg"], r["tilt_azimuth_deg"]) for r in rows if r.get("tilt_deg")}
     return Design(positions={r["id"]: (r["x"], r["y"]) for r in rows}, tops={r["id"]: r["top"] for r in rows},
-                  groups=groups if len(set(groups.values())) > 1 else {}, source=f"{preset} preset")
+                  groups=groups if len(set(groups.values())) > 1 else {}, tilts=tilts,
+                  source=f"{preset} preset")
 
 
 def make_plan(name: str) -> None:

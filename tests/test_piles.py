@@ -173,6 +173,10 @@ def test_design_positions_and_spacings(tmp_path, jacket_small):
         ("id,x,y\n1,2\n", r"line 2: 2 values, expected 3"),
         ("foo,bar\n1,2\n", r"line 1: header"),
         ("", r"the design file is empty"),
+        ("id,x,y,rake\n1,2,3,6\n", r"has rake but no tilt_azimuth_deg"),
+        ("id,x,y,tilt_deg,rake,tilt_azimuth_deg\n1,2,3,1,6,0\n", r"has both tilt_deg and rake"),
+        ("id,x,y,rake,tilt_azimuth_deg\n1,2,3,0.5,0\n", r"column 4 \(rake\): 0.5; expected a rake 1:N"),
+        ("id,x,y,tilt_deg,tilt_azimuth_deg\n1,2,3,60,0\n", r"column 4 \(tilt_deg\): 60; expected a lean"),
     ],
 )
 def test_bad_design_rows_name_the_line(tmp_path, text, pattern):
@@ -180,6 +184,15 @@ def test_bad_design_rows_name_the_line(tmp_path, text, pattern):
     p.write_text(text)
     with pytest.raises(InputError, match=pattern):
         read_design(p)
+
+
+def test_a_design_gives_raked_piles_by_rake_or_by_lean(tmp_path):
+    p = tmp_path / "d.csv"
+    p.write_text("group,id,x,y,top,rake,tilt_azimuth_deg\n1,1,0,0,-5,4,405\n1,2,9,0,-5,0,0\n")
+    d = read_design(p)
+    assert d.tilts == {1: (pytest.approx(math.degrees(math.atan(0.25))), 45.0)}  # 1:4, plumb left out
+    p.write_text("id,x,y,tilt_deg,tilt_azimuth_deg\n1,0,0,9.5,270\n")
+    assert read_design(p).tilts == {1: (9.5, 270.0)}
 
 
 def test_bad_parameters_are_named(jacket_small):

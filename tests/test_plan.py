@@ -7,16 +7,19 @@ import csv
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from mbinspect.cli.main import main
 from mbinspect.errors import InputError, ParameterError
+from mbinspect.io import PointCloud
 from mbinspect.piles import Design
 from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
+from mbinspect.plan.check import _sides
 from mbinspect.plan.layouts import candidates, with_both_ways
-from mbinspect.plan.predict import Setting, run_trial
+from mbinspect.plan.predict import Setting, as_built_lean, run_trial
 from mbinspect.simulate import named_sonar
 
 DATA = Path(__file__).parent / "data"
@@ -212,3 +215,37 @@ def test_a_line_plan_with_a_bad_value_is_refused_in_one_line(tmp_path, capsys):
     assert main(["simulate", "jacket", "--survey-lines", str(f), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert "line 3, column y_start: 'ten'" in err and len(err.splitlines()) == 1
+
+
+def test_a_raked_design_is_surveyed_raked_and_its_sides_counted_round_the_leaning_axis():
+    # each pile raked 1:4 outward from the square's centre, as a wharf's corner piles are
+    tilts = {1: (14.04, 225.0), 2: (14.04, 135.0), 3: (14.04, 315.0), 4: (14.04, 45.0)}
+    raked = Design(positions=SQUARE.positions, tilts=tilts, source="raked")
+    opts = PlanOptions(radius=0.75, depth=21.0, height=5.0)
+    piles = design_piles(raked, opts)
+    assert [(p.tilt_deg, p.tilt_azimuth_deg) for p in piles] == [tilts[i] for i in (1, 2, 3, 4)]
+    assert as_built_lean(piles[0], 14.04, 45.0)[0] == pytest.approx(0.0, abs=1e-9)  # leant back plumb
+    steeper = math.degrees(math.atan(math.tan(math.radians(14.04)) + math.tan(math.radians(1.0))))
+    assert as_built_lean(piles[0], 1.0, 225.0) == (pytest.approx(steeper), pytest.approx(225.0))
+    f = structure_frame(np.array([[p.x, p.y] for p in piles]), radius=0.75)
+    hash_ = {c.name: c for c in candidates(f, offsets=(10.0,), margin=20.0)}["hash-10"]
+    trial = run_trial(hash_, piles, Setting(named_sonar("shallow"), 0.2, 2.0, 21.0, 0.75, 0.0, f.centre), 1)
+    assert not trial.missed and len(trial.spacings) == 6
+    assert all(abs(e) < 0.05 and abs(e) < 4 * s for _, _, e, s in trial.spacings)
+    # round the axis the '#' reaches every side; round a plumb axis from the top the sides
+    # 2-5 m down (0.5-1.25 m off) would all fall on the side the pile leans away from
+    assert all(min(c) > 10 for _, c in trial.sectors)
+
+
+def test_a_checked_survey_counts_a_raked_piles_sides_round_its_measured_axis():
+    t = np.radians(14.04)
+    k = np.arange(4000)
+    below = 0.3 + 4.0 * (k % 50) / 50
+    ang = 2 * np.pi * (k // 50 + 0.5) / 80
+    lean = np.array([np.sin(np.radians(45.0)), np.cos(np.radians(45.0))]) * np.tan(t)
+    xy = np.c_[0.75 * np.sin(ang), 0.75 * np.cos(ang)] - below[:, None] * lean
+    cloud = PointCloud(np.c_[xy + [100.0, 200.0], -16.0 - below])
+    pile = SimpleNamespace(id=1, x=100.0, y=200.0, z=-16.0, radius=0.75, tilt_deg=14.04,
+                           tilt_azimuth_deg=45.0)
+    counts = _sides(cloud, [pile], 0.75)[1]
+    assert sum(counts) == 4000 and min(counts) == max(counts) == 500

@@ -27,13 +27,15 @@ class Design:
     """A design: pile positions (id -> x, y) or pile-pair spacings ((a, b) -> distance), the
     jacket (group) of each pile id when the design file has a ``group`` column, and each
     pile's top elevation (m, the survey's vertical reference) with a ``top`` or ``cutoff``
-    column."""
+    column, and each raked pile's designed lean (``tilts``: id -> (degrees from vertical,
+    the bearing its top leans toward)) with ``tilt_deg`` or ``rake`` and ``tilt_azimuth_deg``."""
 
     positions: dict[int, tuple[float, float]] = field(default_factory=dict)
     spacings: dict[tuple[int, int], float] = field(default_factory=dict)
     source: str | None = None
     groups: dict[int, int] = field(default_factory=dict)
     tops: dict[int, float] = field(default_factory=dict)
+    tilts: dict[int, tuple[float, float]] = field(default_factory=dict)
 
     def spacing(self, a: int, b: int) -> float | None:
         """The design distance between piles ``a`` and ``b`` (m), or None if not designed."""
@@ -46,8 +48,10 @@ class Design:
 
 
 def read_design(path: str | Path) -> Design:
-    """Read a design CSV: ``[group,]id,x,y[,top]`` (positions and top elevations, m; ``cutoff``
-    for ``top`` too) or ``a,b,distance`` (spacings, m).
+    """Read a design CSV: ``[group,]id,x,y[,top][,tilt_deg|rake,tilt_azimuth_deg]`` (positions
+    and top elevations, m; ``cutoff`` for ``top`` too; a raked pile's lean from vertical in
+    degrees, or as its rake 1:N with ``0`` for plumb, and the bearing its top leans toward,
+    degrees clockwise from north) or ``a,b,distance`` (spacings, m).
 
     A header row is required; ``#`` lines and blank lines are skipped.
 
@@ -113,14 +117,16 @@ def read_design(path: str | Path) -> Design:
 
 
 def _positions(p: Path, header: list[str], body: list[tuple[int, list[str]]]) -> Design:
-    """A design of positions: ``[group,]id,x,y[,top|cutoff]``."""
+    """A design of positions: ``[group,]id,x,y[,top|cutoff][,tilt_deg|rake,tilt_azimuth_deg]``."""
     grouped = "group" in header
     top_col = next((c for c in ("top", "cutoff") if c in header), None)
-    names = (("group",) if grouped else ()) + ("id", "x", "y") + ((top_col,) if top_col else ())
+    lean = _lean_columns(p, header)
+    names = (("group",) if grouped else ()) + ("id", "x", "y") + ((top_col,) if top_col else ()) + lean
     cols = [header.index(c) for c in names]
     positions: dict[int, tuple[float, float]] = {}
     groups: dict[int, int] = {}
     tops: dict[int, float] = {}
+    tilts: dict[int, tuple[float, float]] = {}
     for lineno, cells in body:
         v = _design_row(p, lineno, cells, cols, header, n_ids=2 if grouped else 1)
         if grouped:
@@ -132,7 +138,36 @@ def _positions(p: Path, header: list[str], body: list[tuple[int, list[str]]]) ->
         positions[pid] = (x, y)
         if top_col:
             tops[pid] = v[3]
-    return Design(positions=positions, source=str(p), groups=groups, tops=tops)
+        if lean:
+            tilt = _tilt(p, lineno, header, lean[0], v[-2])
+            if tilt > 0:
+                tilts[pid] = (tilt, v[-1] % 360.0)
+    return Design(positions=positions, source=str(p), groups=groups, tops=tops, tilts=tilts)
+
+
+def _lean_columns(p: Path, header: list[str]) -> tuple[str, ...]:
+    """The design's lean columns: ``(tilt_deg | rake, tilt_azimuth_deg)``, or none."""
+    given = [c for c in ("tilt_deg", "rake") if c in header]
+    if len(given) > 1:
+        raise InputError(f"{p}: has both tilt_deg and rake; expected one way of giving a pile's lean")
+    if given and "tilt_azimuth_deg" not in header:
+        raise InputError(f"{p}: has {given[0]} but no tilt_azimuth_deg; expected the bearing each "
+                         "raked pile's top leans toward (degrees clockwise from north)")
+    if not given and "tilt_azimuth_deg" in header:
+        raise InputError(f"{p}: has tilt_azimuth_deg but no tilt_deg or rake column")
+    return (given[0], "tilt_azimuth_deg") if given else ()
+
+
+def _tilt(p: Path, lineno: int, header: list[str], col: str, value: float) -> float:
+    """A lean from vertical (degrees) from a ``tilt_deg`` or a ``rake`` (1:N) value."""
+    where = f"{p}, line {lineno}, column {header.index(col) + 1} ({col})"
+    if col == "rake":
+        if value != 0 and value < 1:
+            raise InputError(f"{where}: {value:g}; expected a rake 1:N with N >= 1, or 0 for a plumb pile")
+        return math.degrees(math.atan(1.0 / value)) if value else 0.0
+    if not 0 <= value < 45:
+        raise InputError(f"{where}: {value:g}; expected a lean from vertical of 0 to 45 degrees")
+    return value
 
 
 def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header: list[str],

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, InputError
+from ..geometry import bearing_to_vector
 from ..io import PointCloud
 from ..outputs import to_jsonable
 from ..piles import Design, locate_piles
@@ -134,13 +135,19 @@ def _matches(planned: Any, sailed: list[dict[str, Any]]) -> list[dict[str, Any]]
 
 
 def _sides(cloud: PointCloud, piles: Any, radius: float) -> dict[int, tuple[int, ...]]:
-    """Soundings on each measured pile's side (within 0.3 m of its wall, 0.2 m below its top) by sector."""
+    """Soundings on each measured pile's side (within 0.3 m of its wall, 0.2 m below its top) by
+    sector, round its axis as measured (a raked pile's wall moves with depth)."""
     out = {}
     xyz = cloud.xyz
     for p in piles:
-        r = np.hypot(xyz[:, 0] - p.x, xyz[:, 1] - p.y)
-        m = (np.abs(r - p.radius) < 0.3) & (xyz[:, 2] < p.z - 0.2) & (xyz[:, 2] > p.z - 30.0)
-        out[p.id] = sector_counts(xyz[m, 0] - p.x, xyz[m, 1] - p.y)
+        below = p.z - xyz[:, 2]
+        run = np.zeros(2)
+        if p.tilt_deg and p.tilt_azimuth_deg is not None:
+            run = math.tan(math.radians(p.tilt_deg)) * bearing_to_vector(p.tilt_azimuth_deg)
+        ex, ny = xyz[:, 0] - p.x + below * run[0], xyz[:, 1] - p.y + below * run[1]
+        r = np.hypot(ex, ny)
+        m = (np.abs(r - p.radius) < 0.3) & (below > 0.2) & (below < 30.0)
+        out[p.id] = sector_counts(ex[m], ny[m])
     return out
 
 

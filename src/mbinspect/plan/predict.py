@@ -1,11 +1,11 @@
 """One candidate layout surveyed in the simulator and measured as a user would: a trial.
 
 The scene is the design alone (its piles standing on a flat, rough seabed at the planned depth,
-each leaning up to ``tilt_max`` as built), surveyed along the layout's lines with the sonar's
-beam and error model, and the soundings measured by :func:`~mbinspect.piles.locate_piles`
-with the design. A trial keeps each spacing's error against the truth with the 1-sigma the
-run reported, each top level's, and how many side soundings each pile got in each of eight
-sectors round it (which sides no beam reaches).
+raked as designed, and each leaning up to ``tilt_max`` more as built), surveyed along the
+layout's lines with the sonar's beam and error model, and the soundings measured by
+:func:`~mbinspect.piles.locate_piles` with the design. A trial keeps each spacing's error
+against the truth with the 1-sigma the run reported, each top level's, and how many side
+soundings each pile got in each of eight sectors round it (which sides no beam reaches).
 """
 
 from __future__ import annotations
@@ -19,11 +19,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import DataError
+from ..geometry import bearing_to_vector
 from ..piles import Design, locate_piles
 from ..simulate import LABELS, Line, Pile, Scene, Seabed, Sonar, Survey, survey
 from .layouts import Layout
 
-__all__ = ["DesignPile", "Setting", "Trial", "SECTORS", "run_trial", "NEAR", "RUN_ON", "sector_counts"]
+__all__ = ["DesignPile", "as_built_lean", "Setting", "Trial", "SECTORS", "run_trial", "NEAR", "RUN_ON",
+           "sector_counts"]
 
 #: Sectors round a pile, each 45 degrees, by the bearing (from the pile) of the face they hold.
 SECTORS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
@@ -39,13 +41,16 @@ RUN_ON = 8.0
 
 @dataclass(frozen=True)
 class DesignPile:
-    """A pile of the design: id, top centre (x, y in the design's CRS), top level, jacket."""
+    """A pile of the design: id, top centre (x, y in the design's CRS), top level, jacket, and
+    a raked pile's lean (degrees from vertical, toward the bearing ``tilt_azimuth_deg``)."""
 
     id: int
     x: float
     y: float
     top: float
     group: int = 1
+    tilt_deg: float = 0.0
+    tilt_azimuth_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -76,13 +81,30 @@ class Trial:
     soundings: int
 
 
+def as_built_lean(p: DesignPile, lean_deg: float, lean_bearing_deg: float) -> tuple[float, float]:
+    """A pile's lean (degrees from vertical, bearing) as built: its designed rake with a
+    further ``lean_deg`` toward ``lean_bearing_deg`` (the two leans' horizontal runs per metre
+    of height added).
+
+    >>> p = DesignPile(1, 0.0, 0.0, -5.0, tilt_deg=10.0, tilt_azimuth_deg=90.0)
+    >>> [round(v, 6) for v in as_built_lean(p, 0.0, 0.0)]
+    [10.0, 90.0]
+    """
+    run = (math.tan(math.radians(p.tilt_deg)) * bearing_to_vector(p.tilt_azimuth_deg)
+           + math.tan(math.radians(lean_deg)) * bearing_to_vector(lean_bearing_deg))
+    bearing = float(np.degrees(np.arctan2(run[0], run[1])) % 360.0)
+    return math.degrees(math.atan(float(np.hypot(*run)))), bearing
+
+
 def _scene(piles: tuple[DesignPile, ...], s: Setting, rng: np.random.Generator, reach: float) -> Scene:
     ox, oy = s.origin
-    scene_piles = tuple(Pile(p.x - ox, p.y - oy, p.top, s.radius, tilt_deg=float(rng.uniform(0, s.tilt_max)),
-                             tilt_bearing_deg=float(rng.uniform(0, 360)), bottom_z=-s.depth - 15.0)
-                        for p in piles)
+    scene_piles = []
+    for p in piles:
+        tilt, bearing = as_built_lean(p, float(rng.uniform(0, s.tilt_max)), float(rng.uniform(0, 360)))
+        scene_piles.append(Pile(p.x - ox, p.y - oy, p.top, s.radius, tilt_deg=tilt, tilt_bearing_deg=bearing,
+                                bottom_z=-s.depth - 15.0))
     seabed = Seabed(z0=-s.depth, roughness=0.03, extent=reach + 60.0, seed=int(rng.integers(2**31)))
-    return Scene(seabed, scene_piles, origin=s.origin)
+    return Scene(seabed, tuple(scene_piles), origin=s.origin)
 
 
 def _sectors(scene: Scene, xyz: np.ndarray, label: np.ndarray, ident: np.ndarray

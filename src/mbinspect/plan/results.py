@@ -117,7 +117,8 @@ class PlanResult:
         top["runner_up"] = [{k: v for k, v in p.to_dict().items() if k in
                              ("name", "description", "time_on_site_s", "meets_target", "worst_sigma")}
                             for p in self.predictions if p.layout.name != self.chosen]
-        top["design"] = [{"id": p.id, "x": p.x, "y": p.y, "top": p.top, "group": p.group} for p in self.piles]
+        top["design"] = [{"id": p.id, "x": p.x, "y": p.y, "top": p.top, "group": p.group,
+                          "tilt_deg": p.tilt_deg, "tilt_azimuth_deg": p.tilt_azimuth_deg} for p in self.piles]
         top["layouts"] = [p.to_dict() for p in self.predictions]
         top["sectors"] = list(SECTORS)
         top["warnings"] = list(self.warnings)
@@ -126,7 +127,8 @@ class PlanResult:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PlanResult:
-        piles = tuple(DesignPile(int(p["id"]), float(p["x"]), float(p["y"]), float(p["top"]), int(p["group"]))
+        piles = tuple(DesignPile(int(p["id"]), float(p["x"]), float(p["y"]), float(p["top"]), int(p["group"]),
+                                 float(p.get("tilt_deg", 0.0)), float(p.get("tilt_azimuth_deg", 0.0)))
                       for p in d["design"])
         return cls(piles, tuple(Prediction.from_dict(p) for p in d["layouts"]), d.get("chosen"),
                    float(d["target_sigma"]), dict(d.get("parameters") or {}), tuple(d.get("warnings") or ()))

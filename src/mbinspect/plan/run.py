@@ -35,7 +35,7 @@ def design_piles(design: Design, options: PlanOptions) -> tuple[DesignPile, ...]
     ``height``)."""
     if not design.positions:
         raise InputError(f"{design.source or 'design'}: gives spacings only; expected pile positions "
-                         "(id,x,y[,group][,top]) to plan lines round")
+                         "(id,x,y[,group][,top][,tilt_deg|rake,tilt_azimuth_deg]) to plan lines round")
     seabed = -options.depth
     piles = []
     for i, (x, y) in sorted(design.positions.items()):
@@ -49,7 +49,9 @@ def design_piles(design: Design, options: PlanOptions) -> tuple[DesignPile, ...]
             raise ParameterError(f"depth: pile {i}'s top at {top:g} m is not above the seabed at "
                                  f"{seabed:g} m; expected tops above the seabed (depth is positive, down)",
                                  option="depth")
-        piles.append(DesignPile(int(i), float(x), float(y), float(top), int(design.groups.get(i, 1))))
+        tilt, azimuth = design.tilts.get(i, (0.0, 0.0))
+        piles.append(DesignPile(int(i), float(x), float(y), float(top), int(design.groups.get(i, 1)),
+                                float(tilt), float(azimuth)))
     return tuple(piles)
 
 

@@ -89,7 +89,8 @@ def build_wharf(opt: WharfOptions, rng: np.random.Generator, sonar: Sonar
             piles.append(Pile(cx + dx + off[0], dy + off[1], opt.top + rng.normal(0, opt.top_scatter),
                               opt.radius, tilt_deg=tilt, tilt_bearing_deg=outward, bottom_z=opt.seabed - 15))
             design.append({"group": g + 1, "id": len(design) + 1, "x": cx + dx + opt.origin_x,
-                           "y": dy + opt.origin_y, "top": opt.top})
+                           "y": dy + opt.origin_y, "top": opt.top, "tilt_deg": tilt,
+                           "tilt_azimuth_deg": outward if tilt else 0.0})
     e, o = half + 25.0, h + opt.line_offset
     lines = [Line(((-e, -o), (e, -o)), ping_spacing=opt.ping_spacing),
              Line(((e, o), (-e, o)), ping_spacing=opt.ping_spacing),

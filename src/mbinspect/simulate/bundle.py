@@ -61,7 +61,7 @@ def write_bundle(folder: Path, truth: Mapping[str, Any], *, cloud: PointCloud | 
         written.append("labels.npz")
     design = truth.get("design")
     if design:
-        cols = [c for c in ("group", "id", "x", "y", "top") if c in design[0]]
+        cols = [c for c in ("group", "id", "x", "y", "top", "tilt_deg", "tilt_azimuth_deg") if c in design[0]]
         write_table(list(design), folder / "design.csv", cols)
         written.append("design.csv")
     if truth.get("plan"):
