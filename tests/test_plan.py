@@ -18,7 +18,7 @@ from mbinspect.io import PointCloud
 from mbinspect.piles import Design
 from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
 from mbinspect.plan.check import _sides
-from mbinspect.plan.layouts import candidates, with_both_ways
+from mbinspect.plan.layouts import Layout, PlanLine, candidates, with_both_ways
 from mbinspect.plan.predict import Setting, as_built_lean, run_trial
 from mbinspect.simulate import named_sonar
 
@@ -249,3 +249,33 @@ def test_a_checked_survey_counts_a_raked_piles_sides_round_its_measured_axis():
                            tilt_azimuth_deg=45.0)
     counts = _sides(cloud, [pile], 0.75)[1]
     assert sum(counts) == 4000 and min(counts) == max(counts) == 500
+
+
+def test_a_layout_predicted_near_the_target_is_surveyed_again_until_clear(monkeypatch):
+    from mbinspect.plan import run as plan_run
+    from mbinspect.plan.predict import Trial
+
+    piles = design_piles(SQUARE, PlanOptions(radius=0.75, depth=21.0, height=5.0))
+    pairs = [(a.id, b.id) for a in piles for b in piles if a.id < b.id]
+    # each survey reports every spacing at the layout's own 1-sigma and errs by as much
+    sigma_of = {"near": 0.011, "far": 0.02, "clear": 0.006}
+
+    def fake(layout, piles_, setting, seed):
+        s = sigma_of[layout.name]
+        return Trial(layout.name, seed, tuple((a, b, s, s) for a, b in pairs), (),
+                     tuple((p.id, (50,) * 8) for p in piles_), (), 1000)
+
+    monkeypatch.setattr(plan_run, "run_trial", fake)
+    opts = PlanOptions(radius=0.75, depth=21.0, height=5.0, seeds=3, max_seeds=8, workers=1)
+    search = plan_run._Search(piles, Setting(named_sonar("shallow"), 0.2, 2.0, 21.0, 0.75, 0.0, (0.0, 0.0)),
+                              opts, None, 10)
+    for name in sigma_of:
+        lay = Layout(name, "", (PlanLine((0.0, 0.0), (1.0, 0.0)),))
+        search.layouts[name] = lay
+        search.trials[name] = []
+        search.firm(name)
+    # 11 mm against 10 mm: within 1.3 of the target, surveyed in batches of 3 up to 8
+    assert {n: len(t) for n, t in search.trials.items()} == {"near": 8, "far": 3, "clear": 3}
+    assert len({t.seed for t in search.trials["near"]}) == 8
+    with pytest.raises(ParameterError, match="max_seeds: 2; expected at least seeds"):
+        PlanOptions(radius=0.75, depth=21.0, seeds=3, max_seeds=2)

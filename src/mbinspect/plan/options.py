@@ -64,14 +64,19 @@ class PlanOptions(Options):
     offsets: str = option("auto", help="offsets (m) of the lines outside the outer piles, comma-separated, "
                                        "or auto: 0.3 and 0.5 of where a top is seen at the swath's edge")
     seeds: int = option(3, check="count", help="simulated surveys per candidate layout")
+    max_seeds: int = option(9, check="count",
+                            help="simulated surveys a layout predicted near the target gets at most, "
+                                 "in batches of seeds, until its prediction is clear of the target")
     seed: int = option(0, check="seed", help="seed of the simulated surveys")
     tilt_max: float = option(1.0, unit="deg", check="non_negative",
                              help="as-built lean of the piles in the simulated surveys, drawn up to this")
     workers: int = option(2, check="count", help="candidate surveys simulated at once, in as many processes")
 
     def check_together(self) -> None:
-        """Offsets parse as positive numbers."""
+        """Offsets parse as positive numbers; ``max_seeds`` is at least ``seeds``."""
         self.offset_values()
+        if self.max_seeds < self.seeds:
+            raise fail("max_seeds", self.max_seeds, f"at least seeds ({self.seeds})")
 
     def offset_values(self) -> tuple[float, ...] | None:
         """The offsets given (m), or None for ``auto``."""

@@ -159,6 +159,10 @@ def _predict(layout: Layout, trials: list[Trial], piles: tuple[DesignPile, ...],
 #: surveyed again (one survey's 1-sigma is rough, but not by half).
 SCREEN = 1.5
 
+#: A layout predicted within this factor of the target (either side) from its surveys so far
+#: is surveyed again (:meth:`_Search.firm`).
+MARGINAL = 1.3
+
 
 @dataclasses.dataclass
 class _Search:
@@ -182,8 +186,23 @@ class _Search:
             self.trials[t.layout].append(t)
 
     def seeds(self) -> list[int]:
-        """The seeds of a layout's simulated surveys (the same for every layout)."""
-        return [self.options.seed * 1000 + k for k in range(self.options.seeds)]
+        """The seeds of a layout's simulated surveys (the same for every layout), the first
+        ``seeds`` of them always, the rest when the prediction is near the target."""
+        return [self.options.seed * 1000 + k for k in range(self.options.max_seeds)]
+
+    def firm(self, name: str) -> Prediction:
+        """The layout surveyed ``seeds`` times in all, then in more batches of ``seeds``
+        (up to ``max_seeds``) while its worst spacing is predicted within :data:`MARGINAL`
+        of the target either side: a few surveys estimate a 1-sigma to a third."""
+        seeds, first = self.seeds(), self.options.seeds
+        self.run([self.layouts[name]], seeds[len(self.trials[name]):first])
+        while True:
+            now = self.prediction(name)
+            ratio = now.worst_sigma / self.options.target_sigma
+            done = len(self.trials[name])
+            if not 1 / MARGINAL < ratio < MARGINAL or done >= len(seeds):
+                return now
+            self.run([self.layouts[name]], seeds[done:done + first])
 
     def prediction(self, name: str) -> Prediction:
         return _predict(self.layouts[name], self.trials[name], self.piles, self.options,
@@ -197,8 +216,7 @@ class _Search:
         hopeful = [self.prediction(lay.name) for lay in layouts]
         hopeful = [p for p in hopeful if p.worst_sigma <= SCREEN * self.options.target_sigma]
         for p in sorted(hopeful, key=lambda p: (p.time_on_site_s, p.layout.name)):
-            self.run([p.layout], seeds[1:])
-            full = self.prediction(p.layout.name)
+            full = self.firm(p.layout.name)
             if full.meets_target:
                 return full
         return None
@@ -208,8 +226,8 @@ def _choose(search: _Search, layouts: list[Layout], given: bool) -> Prediction |
     """The layout that meets the target in the least time: among ``layouts`` each surveyed
     ``seeds`` times when ``given``, else screened, then the best two sailed both ways if none does."""
     if given:
-        search.run(layouts, search.seeds())
-        meeting = [p for p in (search.prediction(lay.name) for lay in layouts) if p.meets_target]
+        search.run(layouts, search.seeds()[:search.options.seeds])
+        meeting = [p for p in (search.firm(lay.name) for lay in layouts) if p.meets_target]
         return min(meeting, key=lambda p: (p.time_on_site_s, p.layout.name)) if meeting else None
     chosen = search.screen_then_confirm(layouts)
     if chosen is None:  # the best few sailed both ways
@@ -273,7 +291,7 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
     predictions.sort(key=lambda p: (p.time_on_site_s, p.layout.name))
     warnings = [measured["warning"]] if measured and measured.get("warning") else []
     if chosen is None:
-        full = [p for p in predictions if p.surveys == opts.seeds] or predictions
+        full = [p for p in predictions if p.surveys >= opts.seeds] or predictions
         chosen = min(full, key=lambda p: (p.worst_sigma, p.time_on_site_s))
         warnings.append(f"no layout meets the target of {opts.target_sigma:g} m for every spacing; the best, "
                         f"{chosen.layout.name}, is predicted to reach {chosen.worst_sigma:.3f} m")
