@@ -183,7 +183,10 @@ def main() -> None:
         chosen.remove("xtf")
         if not chosen:
             return
-        sys.argv[sys.argv.index("--configs") + 1] = ",".join(chosen)
+        if "--configs" in sys.argv:
+            sys.argv[sys.argv.index("--configs") + 1] = ",".join(chosen)
+        else:
+            sys.argv += ["--configs", ",".join(chosen)]
     for name in chosen:
         make_plan(name)
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)

@@ -14,7 +14,7 @@ from ..grid import bounds as plan_bounds
 from .clearance import LEAST_COLS, clearance_section, placement_lines, placement_section, rest_section
 from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
-from .maps import map_furniture, mpl, plan_image, save_figure
+from .maps import map_figure, map_furniture, mpl, plan_image, save_figure
 from .writers import Outputs, write_outputs
 
 __all__ = ["reef_figures", "reef_outputs", "write_reef_outputs", "reef_verdicts"]
@@ -68,15 +68,14 @@ def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
     """One reef map: shaded relief, outlines coloured by the score, others, legend, furniture."""
     from matplotlib.lines import Line2D
 
-    plt = mpl()
     p = np.asarray(points, np.float64)
     span = float(np.subtract(*plan_bounds(p)[::-1]).max()) if bounds is None else max(bounds[2] - bounds[0],
                                                                           bounds[3] - bounds[1])
     cell = max(0.1 if bounds is not None else 0.2, span / 900.0)
     img, ext = plan_image(p, cell=cell, bounds=bounds)
-    fig, ax = plt.subplots(figsize=(10, 8.5))
+    fig, ax, cax = map_figure(ext)
     shown = ax.imshow(img, origin="lower", extent=ext, cmap="gist_earth", interpolation="nearest", alpha=0.9)
-    fig.colorbar(shown, ax=ax, label="elevation (m)", shrink=0.7)
+    fig.colorbar(shown, cax=cax, label="elevation (m)")
     ax.imshow(_hillshade(img, cell), origin="lower", extent=ext, cmap="gray", alpha=0.35,
               interpolation="nearest")
     colours = {}
@@ -115,7 +114,7 @@ def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
     handles.append(Line2D([], [], marker="x", ls="", color="orange", label="other object"))
     ax.legend(handles=handles, loc="upper left", fontsize=8, framealpha=0.8)
     map_furniture(ax, crs_name=crs_name(crs_of(result)), origin=None)
-    return save_figure(fig, path)
+    return save_figure(fig, path, tight=False)
 
 
 def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]:
