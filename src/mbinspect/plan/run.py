@@ -210,9 +210,9 @@ class _Search:
 
     def screen_then_confirm(self, layouts: list[Layout]) -> Prediction | None:
         """Each layout surveyed once; those not far from the target, fastest first, surveyed
-        ``seeds`` times in all until one meets it (that one, else None)."""
-        seeds = self.seeds()
-        self.run(layouts, seeds[:1])
+        ``seeds`` times in all (more near the target: :meth:`firm`) until one meets it (that
+        one, else None)."""
+        self.run(layouts, self.seeds()[:1])
         hopeful = [self.prediction(lay.name) for lay in layouts]
         hopeful = [p for p in hopeful if p.worst_sigma <= SCREEN * self.options.target_sigma]
         for p in sorted(hopeful, key=lambda p: (p.time_on_site_s, p.layout.name)):
