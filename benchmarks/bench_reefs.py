@@ -16,6 +16,12 @@ needed, then timed in the same run:
   ``cluster_dbscan`` (eps 0.5 m, 10 points) on the points off the plane: the paper's steps,
   as a user would chain them.
 
+``--end-to-end`` writes the ``--sizes`` field (default 3.7 M) as a three-column ASCII file
+and runs, in turn and ``--repeat`` times each, ``mbinspect -v reefs FILE --crs EPSG:32617``
+(figures on, as a user runs it), the same with ``--no-figures``, and
+``benchmarks/open3d_steps.py FILE`` (Open3D reads the file itself, then the paper's steps):
+each one's wall and CPU seconds and peak resident memory, and the ratio to Open3D's wall.
+
 ``--memory-10m`` writes the 10 M-sounding field as each of ``--memory-formats`` and, in a
 fresh process each, reads it and extracts the reefs: the seconds, the main process's peak
 resident memory (``ru_maxrss``) and the peak of the main process and its ASCII parsers
@@ -76,6 +82,58 @@ def memory_run(path: str) -> None:
                       "read_peak_gib": read_peak, "read_whole_gib": read_whole}))
 
 
+def _run_measured(name: str, cmd: list[str], folder: Path) -> tuple[float, float, float, str]:
+    """Run ``cmd``: its wall and CPU seconds (it and the children it waited for), its peak
+    resident GiB and the last line it printed about reefs or clusters."""
+    import os
+
+    with open(folder / "stdout", "w+") as out, open(folder / "stderr", "w+") as err:
+        t = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=out, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        text = out.read() + err.read()
+    if proc.returncode != 0:
+        raise SystemExit(f"{name} failed ({proc.returncode}): {text.strip()[-300:]}")
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    said = next((ln for ln in reversed(lines) if "reef" in ln or "cluster" in ln), lines[-1] if lines else "")
+    return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 2**20, said
+
+
+def end_to_end(size: float, repeat: int) -> None:
+    """The dense field end to end as a user runs it, beside Open3D's steps on the same file."""
+    sim = simulate("reef-field", seed=0, ping_spacing=SPACING.get(size, 0.75 * 0.3 / size))
+    n_true = len(sim.truth["reefs"])
+    rows: dict[str, list[tuple[float, float, float, str]]] = {}
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "field.xyz"
+        write(sim.cloud, path)
+        del sim
+        ours = [str(Path(sys.executable).parent / "mbinspect"), "-v", "reefs", str(path),
+                "--crs", "EPSG:32617", "--out", f"{d}/out", "--overwrite"]
+        runs = {
+            "mbinspect reefs (figures on)": ours,
+            "mbinspect reefs --no-figures": ours + ["--no-figures"],
+            "Open3D (open3d_steps.py)": [sys.executable, str(Path(__file__).parent / "open3d_steps.py"),
+                                         str(path)],
+        }
+        for _ in range(repeat):
+            for name, cmd in runs.items():
+                rows.setdefault(name, []).append(_run_measured(name, cmd, Path(d)))
+    o3d_wall = min(w for w, _, _, _ in rows["Open3D (open3d_steps.py)"])
+    table_rows = []
+    for name, runs_of in rows.items():
+        wall, cpu, _, said = min(runs_of)
+        table_rows.append([name, f"{wall:.2f}", ", ".join(f"{w:.2f}" for w, _, _, _ in runs_of), f"{cpu:.2f}",
+                           f"{max(m for _, _, m, _ in runs_of):.2f}", f"{wall / o3d_wall:.2f}x", said[:90]])
+    print(f"{size:g} M soundings field, {n_true} reefs in the truth")
+    print(table(["run", "best wall s", "every wall s", "CPU s (best)", "peak resident GiB",
+                 "/ Open3D wall", "last line said"], table_rows))
+
+
 def profile(sizes: list[float], tile: float = 120.0, formats: tuple[str, ...] = ("npz",)) -> None:
     """The stage budget: each stage's seconds and peak resident memory, the whole field in
     memory and one tile of ``tile`` m from its middle (what a worker of a tiled run does),
@@ -120,6 +178,8 @@ def main() -> None:
                     help="print the stage budget at --sizes (default then 1,3.7,10) and stop")
     ap.add_argument("--sizes", default="0.3,3")
     ap.add_argument("--memory-10m", action="store_true")
+    ap.add_argument("--end-to-end", action="store_true",
+                    help="time the command line and Open3D's steps on the field as an ASCII file and stop")
     ap.add_argument("--memory-formats", default="npz,xyz", help="file formats the 10 M run reads")
     ap.add_argument("--read-formats", default="npz", help="file formats whose read --profile times")
     ap.add_argument("--repeat", type=int, default=2)
@@ -127,6 +187,9 @@ def main() -> None:
     if args.profile:
         profile([float(v) for v in (args.sizes if args.sizes != "0.3,3" else "1,3.7,10").split(",")],
                 formats=tuple(args.read_formats.split(",")))
+        return
+    if args.end_to_end:
+        end_to_end(float(args.sizes) if args.sizes != "0.3,3" else 3.7, args.repeat)
         return
     rows = []
     filter_rows = []

@@ -56,7 +56,7 @@ def write_change_outputs(result: ChangeResult, out: str | Path, *, crs: str | No
     """Write a comparison's files into ``out`` (a staging folder); the names written."""
     outputs = Outputs("change", result.to_dict(), tables=(("change.csv", change_rows(result), CSV_COLUMNS),),
                       features=_features(result), crs=crs,
-                      figures=(lambda folder: _figures(result, folder)) if figures else None,
+                      figures=(lambda folder: [lambda: _figures(result, folder)]) if figures else None,
                       page=lambda images: _page(result, images))
     return write_outputs(outputs, out, figures=figures)
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from .grid import Grid
 
@@ -284,7 +284,7 @@ def _jackknife(before: Grid, px: np.ndarray, py: np.ndarray, a: np.ndarray, c: t
             return None
         est.append(fit[0])
     d = np.asarray(est) - np.mean(est, axis=0)
-    widen = (float(student_t.ppf(0.975, g - 1)) / 1.959963984540054) ** 2
+    widen = (float(stdtrit(g - 1, 0.975)) / 1.959963984540054) ** 2
     return d.T @ d * (g - 1) / g * widen
 
 
@@ -308,7 +308,7 @@ def _cluster_cov(jac: np.ndarray, e: np.ndarray, x: np.ndarray, y: np.ndarray
             continue
         sums = np.zeros((g, jac.shape[1]))
         np.add.at(sums, inv, jac * e[:, None])
-        widen = (float(student_t.ppf(0.975, g - 1)) / 1.959963984540054) ** 2
+        widen = (float(stdtrit(g - 1, 0.975)) / 1.959963984540054) ** 2
         cov = bread @ (sums.T @ sums * g / (g - 1)) @ bread * widen
         if best is None or np.trace(cov) > np.trace(best):
             best, blocks = cov, g

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from ..fit import clustered_cov
 from ..least_depth import LeastDepth, s44_order
@@ -250,13 +250,13 @@ def _fit_component(piles: list[PileFit]) -> tuple[dict[int, float], dict[int, fl
     w = 1.0 / (v + tau2)
     # the interaction is known from few surplus cells: the 95 % bound is Student's, not the
     # normal's, and the 1-sigma is widened to carry it (a 1.96-sigma bound stays 95 %)
-    widen = float(student_t.ppf(0.975, dof)) / 1.96 if dof > 0 else 1.0
+    widen = float(stdtrit(dof, 0.975)) / 1.96 if dof > 0 else 1.0
     cov = np.linalg.pinv(x.T @ (x * w[:, None])) * widen**2
     beta = cov @ (x.T @ (w * y)) / widen**2
     delta = np.r_[beta[n_p:], -beta[n_p:].sum()] if n_l > 1 else np.zeros(1)
     notes = []
     if n_l > 1:
-        datum = float(np.sum(delta**2) / (n_l - 1) / n_l) * (float(student_t.ppf(0.975, n_l - 1)) / 1.96)**2
+        datum = float(np.sum(delta**2) / (n_l - 1) / n_l) * (float(stdtrit(n_l - 1, 0.975)) / 1.96)**2
     else:
         datum = math.nan
         notes.append(f"pile{'s' if n_p > 1 else ''} {', '.join(map(str, ids))}: top sounded by one line, "

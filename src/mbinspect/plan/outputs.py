@@ -91,7 +91,7 @@ def write_plan_outputs(result: PlanResult, out: str | Path, *, crs: str | None =
     piles, lines = _features(result)
     outputs = Outputs("plan", result.to_dict(), tables=(("lines.csv", line_rows(result), LINE_COLUMNS),),
                       features=piles, layers=(("lines", lines),), crs=crs,
-                      figures=(lambda folder: _figures(result, folder)) if figures else None,
+                      figures=(lambda folder: [lambda: _figures(result, folder)]) if figures else None,
                       page=lambda images: _page(result, images))
     return write_outputs(outputs, out, figures=figures)
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from ..fit.robust import clustered_cov
 from ..noise import robust_sigma
@@ -96,7 +96,7 @@ def top_plane(pts: np.ndarray, noise: float, ping: np.ndarray | None = None
         g = len(np.unique(groups))
         if g >= least:  # with the few-cluster correction (CR1) and Student's quantile for
             # g - 1 degrees of freedom, so that 2 sigma still holds 95 %
-            widen = (float(student_t.ppf(0.975, g - 1)) / 1.96) ** 2
+            widen = (float(stdtrit(g - 1, 0.975)) / 1.96) ** 2
             covs.append(clustered_cov(dev, groups) * g / (g - 1) * (len(x) - 1) / max(len(x) - 3, 1) * widen)
     cov = max(covs, key=lambda c: float(c[1, 1] + c[2, 2]))
     return coef, cov, ""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import html
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +26,10 @@ from .pile_tables import (
     spacing_row,
     spacing_table,
 )
-from .writers import Outputs, write_outputs
+from .writers import Outputs, figure_job, write_outputs
 
-__all__ = ["pile_figures", "spacing_table", "pile_outputs", "write_pile_outputs", "pile_verdicts"]
+__all__ = ["pile_figures", "pile_figure_jobs", "spacing_table", "pile_outputs", "write_pile_outputs",
+           "pile_verdicts"]
 
 
 def _plan(result: Any, points: np.ndarray, piles: list[Any], spacings: list[Any], path: Path, title: str
@@ -83,7 +84,7 @@ def _plan(result: Any, points: np.ndarray, piles: list[Any], spacings: list[Any]
 
 
 def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]:
-    """The pile figures: plan view, one per pile, convergence. Returns name -> PNG bytes.
+    """The pile figures: plan view, one per pile, convergence.
 
     Parameters
     ----------
@@ -95,30 +96,33 @@ def pile_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
     Returns
     -------
     dict
+        Name -> PNG bytes.
     """
-    images: dict[str, bytes] = {}
+    return {name: png for job in pile_figure_jobs(result, points, out) for name, png in job().items()}
+
+
+def pile_figure_jobs(result: Any, points: np.ndarray, out: Path) -> list[Callable[[], dict[str, bytes]]]:
+    """The pile figures as independent drawing jobs in report order, the plan maps first: each
+    draws one figure into ``out`` and returns {name: PNG bytes}
+    (:attr:`~mbinspect.report.writers.Outputs.figures`)."""
     piles = list(result.piles)
     groups = sorted({p.group for p in piles})
     if len(groups) == 1:
-        images["plan"] = _plan(result, points, piles, list(result.spacings), out / "plan.png",
-                               "Plan view: median sounding per 0.2 m cell, fitted tops (red), spacings and "
-                               "their deviation from the design")
+        jobs = [figure_job("plan", _plan, result, points, piles, list(result.spacings), out / "plan.png",
+                           "Plan view: median sounding per 0.2 m cell, fitted tops (red), spacings and their "
+                           "deviation from the design")]
     else:  # an overview without labels, and one map per jacket
-        images["plan"] = _plan(result, points, piles, [], out / "plan.png",
-                               "Plan view of every jacket: median sounding per 0.2 m cell, fitted tops (red)")
-        for g in groups:
-            images[f"jacket{g}"] = _plan(result, points, [p for p in piles if p.group == g],
-                                         [sp for sp in result.spacings if sp.group == g],
-                                         out / f"plan_jacket_{g}.png",
-                                         f"Jacket {g}: fitted tops (red), spacings and their deviation "
-                                         "from the design")
-    for p in piles:
-        seg = result.segments.get(p.id)
-        if seg is not None:
-            images[f"pile{p.id}"] = _pile_figure(p, seg, result.cylinders.get(p.id), out / f"pile_{p.id}.png")
+        jobs = [figure_job("plan", _plan, result, points, piles, [], out / "plan.png",
+                           "Plan view of every jacket: median sounding per 0.2 m cell, fitted tops (red)")]
+        jobs += [figure_job(f"jacket{g}", _plan, result, points, [p for p in piles if p.group == g],
+                            [sp for sp in result.spacings if sp.group == g], out / f"plan_jacket_{g}.png",
+                            f"Jacket {g}: fitted tops (red), spacings and their deviation from the design")
+                 for g in groups]
+    jobs += [figure_job(f"pile{p.id}", _pile_figure, p, result.segments[p.id], result.cylinders.get(p.id),
+                        out / f"pile_{p.id}.png") for p in piles if result.segments.get(p.id) is not None]
     if result.iterations:
-        images["convergence"] = _convergence(result, out / "convergence.png")
-    return images
+        jobs.append(figure_job("convergence", _convergence, result, out / "convergence.png"))
+    return jobs
 
 
 def _pile_figure(p: Any, seg: Any, cyl: Any, path: Path) -> bytes:
@@ -202,7 +206,7 @@ def pile_outputs(result: Any, points: np.ndarray, *, title: str = "Pile position
     tables = (("piles.csv", rows, PILE_COLS + LEAST_COLS), ("spacings.csv", d["spacings"], SPACING_COLS),
               ("levels.csv", d["levels"], LEVEL_COLS))
     return Outputs("piles", d, tables, features, crs_of(result),
-                   lambda out: pile_figures(result, points, out), _figure_file,
+                   lambda out: pile_figure_jobs(result, points, out), _figure_file,
                    lambda images: html_page(title, _page(result, d, images, truth), images))
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -15,9 +15,9 @@ from .clearance import LEAST_COLS, clearance_section, placement_lines, placement
 from .gis import crs_label, crs_name, crs_of, heights_label
 from .html import html_page, html_table, json_dumps, number, parameter_table, provenance_table, verdict_banner
 from .maps import map_figure, map_furniture, mpl, plan_image, save_figure
-from .writers import Outputs, write_outputs
+from .writers import Outputs, figure_job, write_outputs
 
-__all__ = ["reef_figures", "reef_outputs", "write_reef_outputs", "reef_verdicts"]
+__all__ = ["reef_figures", "reef_figure_jobs", "reef_outputs", "write_reef_outputs", "reef_verdicts"]
 
 
 _REEF_COLS = ["id", "x", "y", "z_seabed", "z_top", "height", "area", "length", "width",
@@ -118,7 +118,7 @@ def _reef_map(result: Any, points: np.ndarray, path: Path, heading: str,
 
 
 def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]:
-    """Reef figures: plan map, profiles per group, height histogram. Returns name -> PNG.
+    """Reef figures: plan map, a map per group, profiles per group, height histogram.
 
     Parameters
     ----------
@@ -130,44 +130,60 @@ def reef_figures(result: Any, points: np.ndarray, out: Path) -> dict[str, bytes]
     Returns
     -------
     dict
+        Name -> PNG bytes.
     """
-    plt = mpl()
-    images: dict[str, bytes] = {}
-    images["plan"] = _reef_map(result, points, out / "plan.png", "Reefs: outlines on shaded relief")
+    return {name: png for job in reef_figure_jobs(result, points, out) for name, png in job().items()}
+
+
+def reef_figure_jobs(result: Any, points: np.ndarray, out: Path) -> list[Callable[[], dict[str, bytes]]]:
+    """The reef figures as independent drawing jobs in report order, the slowest (the plan map)
+    first: each draws one figure into ``out`` and returns {name: PNG bytes}
+    (:attr:`~mbinspect.report.writers.Outputs.figures`)."""
+    jobs = [figure_job("plan", _reef_map, result, points, out / "plan.png",
+                       "Reefs: outlines on shaded relief")]
     if len(result.reefs) > 30:  # a readable map per group
         for g in list(result.groups)[:12]:
             members = [r for r in result.reefs if r.group == g["id"]]
             xy = np.array([v for r in members for v in (r.outline or ((r.x, r.y),))])
             lo, hi = xy.min(axis=0) - 4.0, xy.max(axis=0) + 4.0
-            images[f"groupmap{g['id']}"] = _reef_map(result, points, out / f"plan_group_{g['id']}.png",
-                                                  f"Group {g['id']}: {len(members)} reefs",
-                                                  [lo[0], lo[1], hi[0], hi[1]])
+            jobs.append(figure_job(f"groupmap{g['id']}", _reef_map, result, points,
+                                   out / f"plan_group_{g['id']}.png",
+                                   f"Group {g['id']}: {len(members)} reefs", [lo[0], lo[1], hi[0], hi[1]]))
     if result.reefs:
-        fig, ax = plt.subplots(figsize=(6.5, 3.8))
-        ax.hist([r.height for r in result.reefs], bins=20, color="tab:blue", edgecolor="white")
-        ax.set_xlabel("reef height above the seabed (m)")
-        ax.set_ylabel("reefs")
-        ax.set_title(f"Heights of {len(result.reefs)} reefs")
-        images["heights"] = save_figure(fig, out / "heights.png")
-    groups = list(result.groups)[:12]
-    if groups:
-        n = len(groups)
-        cols = min(3, n)
-        rows = int(math.ceil(n / cols))
-        fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.2 * rows), squeeze=False)
-        for ax, g in zip(axes.ravel(), groups, strict=False):
-            members = [r for r in result.reefs if r.group == g["id"]]
-            xs = np.array([r.x for r in members])
-            ax.bar(xs - xs.min(), [r.height for r in members], width=1.2, color="tab:gray")
-            ax.set_title(f"group {g['id']}: {g['count']} reefs", fontsize=9)
-            ax.set_xlabel("easting from the group's west edge (m)", fontsize=8)
-            ax.set_ylabel("height (m)", fontsize=8)
-        for ax in axes.ravel()[n:]:
-            ax.axis("off")
-        fig.suptitle("Profiles: reef heights across each group")
-        fig.tight_layout()
-        images["groups"] = save_figure(fig, out / "groups.png")
-    return images
+        jobs.append(figure_job("heights", _heights, result, out / "heights.png"))
+    if result.groups:
+        jobs.append(figure_job("groups", _profiles, result, list(result.groups)[:12], out / "groups.png"))
+    return jobs
+
+
+def _heights(result: Any, path: Path) -> bytes:
+    """The histogram of the reefs' heights."""
+    fig, ax = mpl().subplots(figsize=(6.5, 3.8))
+    ax.hist([r.height for r in result.reefs], bins=20, color="tab:blue", edgecolor="white")
+    ax.set_xlabel("reef height above the seabed (m)")
+    ax.set_ylabel("reefs")
+    ax.set_title(f"Heights of {len(result.reefs)} reefs")
+    return save_figure(fig, path)
+
+
+def _profiles(result: Any, groups: list[Mapping[str, Any]], path: Path) -> bytes:
+    """Each group's reef heights against easting, a panel per group."""
+    n = len(groups)
+    cols = min(3, n)
+    rows = int(math.ceil(n / cols))
+    fig, axes = mpl().subplots(rows, cols, figsize=(5 * cols, 3.2 * rows), squeeze=False)
+    for ax, g in zip(axes.ravel(), groups, strict=False):
+        members = [r for r in result.reefs if r.group == g["id"]]
+        xs = np.array([r.x for r in members])
+        ax.bar(xs - xs.min(), [r.height for r in members], width=1.2, color="tab:gray")
+        ax.set_title(f"group {g['id']}: {g['count']} reefs", fontsize=9)
+        ax.set_xlabel("easting from the group's west edge (m)", fontsize=8)
+        ax.set_ylabel("height (m)", fontsize=8)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    fig.suptitle("Profiles: reef heights across each group")
+    fig.tight_layout()
+    return save_figure(fig, path)
 
 
 _GROUP_HEAD = {"id": "group", "count": "reefs", "x": "easting (m)", "y": "northing (m)",
@@ -245,7 +261,7 @@ def reef_outputs(result: Any, points: np.ndarray, *, title: str = "Artificial re
                          "geometry": {"type": "Polygon", "coordinates": [ring]} if ring else None,
                          "properties": {c: r.get(c) for c in cols}})
     return Outputs("reefs", d, (("reefs.csv", d["reefs"], cols),), features, crs_of(result),
-                   lambda out: reef_figures(result, points, out), _figure_file,
+                   lambda out: reef_figure_jobs(result, points, out), _figure_file,
                    lambda images: html_page(title, _page(result, d, images), images),
                    (("placement", placement_lines(d)),) if "plan_missing" in d else ())
 

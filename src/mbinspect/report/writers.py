@@ -19,13 +19,15 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
+from ..forked import forked
 from ..outputs import atomic_path, write_json, write_table
 from .gis import write_gis
 
-__all__ = ["Outputs", "Writer", "WRITERS", "write_outputs"]
+__all__ = ["Outputs", "Writer", "WRITERS", "NEED_FIGURES", "figure_job", "write_outputs"]
 
 
 @dataclass(frozen=True)
@@ -45,7 +47,10 @@ class Outputs:
     crs : str, optional
         The survey's CRS.
     figures : callable, optional
-        ``figures(folder) -> {name: png bytes}``: draws and saves the figures.
+        ``figures(folder) -> [job, ...]``: the drawing jobs, each ``job() -> {name: png
+        bytes}`` drawing and saving one or more figures into the folder. They are
+        independent: :func:`write_outputs` runs them in forked processes
+        (:mod:`mbinspect.forked`) while it writes the tables.
     figure_file : callable
         A figure's name -> its file name.
     page : callable, optional
@@ -59,10 +64,20 @@ class Outputs:
     tables: tuple[tuple[str, Sequence[Mapping[str, Any]], Sequence[str]], ...] = ()
     features: list[dict[str, Any]] = field(default_factory=list)
     crs: str | None = None
-    figures: Callable[[Path], dict[str, bytes]] | None = None
+    figures: Callable[[Path], Sequence[Callable[[], dict[str, bytes]]]] | None = None
     figure_file: Callable[[str], str] = lambda name: f"{name}.png"
     page: Callable[[dict[str, bytes]], str] | None = None
     layers: tuple[tuple[str, list[dict[str, Any]]], ...] = ()
+
+
+def _draw_one(name: str, draw: Callable[..., bytes], args: tuple[Any, ...]) -> dict[str, bytes]:
+    return {name: draw(*args)}
+
+
+def figure_job(name: str, draw: Callable[..., bytes], *args: Any) -> Callable[[], dict[str, bytes]]:
+    """A drawing job of :attr:`Outputs.figures`: ``draw(*args)`` (which saves one figure and
+    returns its PNG bytes) as ``{name: png}``."""
+    return partial(_draw_one, name, draw, args)
 
 
 #: A writer: ``(outputs, folder, images) -> names of the files written``.
@@ -97,10 +112,13 @@ def _html(o: Outputs, out: Path, images: dict[str, bytes]) -> list[str]:
     return ["report.html"]
 
 
-#: Writer name -> writer, in the order they run (the figures are drawn before any runs, so
-#: that the page can inline them).
+#: Writer name -> writer, in the order they run. The figures are drawn meanwhile, in other
+#: processes; a writer of :data:`NEED_FIGURES` waits for them (the page inlines them).
 WRITERS: dict[str, Writer] = {"json": _json, "csv": _csv, "geojson": _geojson, "figures": _figures,
                               "html": _html}
+
+#: The writers that need the drawn figures.
+NEED_FIGURES = frozenset({"figures", "html"})
 
 
 def write_outputs(outputs: Outputs, out: str | Path, *, figures: bool = True,
@@ -123,8 +141,12 @@ def write_outputs(outputs: Outputs, out: str | Path, *, figures: bool = True,
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    images = outputs.figures(out) if figures and outputs.figures is not None else {}
+    jobs = outputs.figures(out) if figures and outputs.figures is not None else []
     written: list[str] = []
-    for name in writers:
-        written += WRITERS[name](outputs, out, images)
+    with forked(jobs) as drawn:
+        images: dict[str, bytes] = {}
+        for name in writers:
+            if name in NEED_FIGURES and jobs and not images:
+                images = {n: png for part in drawn() for n, png in part.items()}
+            written += WRITERS[name](outputs, out, images)
     return written

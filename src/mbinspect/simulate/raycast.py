@@ -19,9 +19,9 @@ def heavy_noise(rng: np.random.Generator, n: int, dof: float) -> np.ndarray:
     """Unit noise: normal, or Student-t of ``dof`` degrees of freedom with the normal's MAD."""
     if dof <= 0:
         return rng.normal(0.0, 1.0, n)
-    from scipy.stats import t as student_t
+    from scipy.special import stdtrit
 
-    return rng.standard_t(dof, n) * (0.6744897501960817 / float(student_t.ppf(0.75, dof)))
+    return rng.standard_t(dof, n) * (0.6744897501960817 / float(stdtrit(dof, 0.75)))
 
 
 def _seabed_hits(seabed: Seabed, o: np.ndarray, d: np.ndarray) -> np.ndarray:
