@@ -51,8 +51,10 @@ def cmd_plan(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> in
 
     from ..outputs import check_output_dir, output_dir
     from ..piles import read_design
-    from ..plan import PlanOptions, plan_survey
+    from ..plan import PlanOptions, PlanResult, plan_input, plan_survey
     from ..plan.outputs import write_plan_outputs
+    from ..plan.reef_outputs import write_reef_plan_outputs
+    from ..reefs.plan import read_plan
     from .flags import given_options
 
     if args.check:
@@ -61,16 +63,42 @@ def cmd_plan(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> in
     crs = _crs(args.crs)
     out = Path(args.out or "plan-out")
     check_output_dir(out, overwrite=args.overwrite, inputs=[args.design])
-    design = read_design(args.design)
+    reefs = plan_input(args.design, options) == "reefs"
+    design = read_plan(args.design) if reefs else read_design(args.design)
     result = plan_survey(design, options, progress=rep.progress("simulating candidate surveys"))
     params = {**result.parameters, "command_line": ["mbinspect", *argv], "crs": crs}
     result = dataclasses.replace(result, parameters=params)
     with output_dir(out, overwrite=args.overwrite, inputs=[args.design]) as tmp:
-        write_plan_outputs(result, tmp, crs=crs, figures=not args.no_figures)
+        if isinstance(result, PlanResult):
+            write_plan_outputs(result, tmp, crs=crs, figures=not args.no_figures)
+        else:
+            write_reef_plan_outputs(result, tmp, crs=crs, figures=not args.no_figures)
     if rep.verbosity >= 0:
-        _print(result)
+        _print(result) if isinstance(result, PlanResult) else _print_reefs(result)
     rep.info(f"results in {out}/ (lines.csv, lines.geojson, plan.json, report.html)")
     return 0
+
+
+def _print_reefs(result: Any) -> None:
+    """A reef plan's chosen layout, its lines and the others, on the terminal."""
+    best = result.best
+    for w in result.warnings:
+        print(f"warning: {w}")
+    if best is None:
+        return
+    cubes = "" if best.cubes_detected is None else \
+        f", {100 * best.cubes_detected:.0f} % of the S-44 {result.s44_order} cubes detected"
+    print(f"chosen: {best.layout.name} ({best.layout.description}), {best.time_on_site_s / 60:.0f} min on "
+          f"site: {100 * best.found:.0f} % of the units found, the fewest soundings on one "
+          f"{best.min_soundings} (target {result.min_soundings}){cubes}; a reef's height to "
+          f"{1000 * best.height_sigma:.0f} mm and centre to {1000 * best.centre_sigma:.0f} mm (1-sigma)")
+    for k, ln in enumerate(best.layout.lines):
+        print(f"  line {k + 1}: ({ln.start[0]:.1f}, {ln.start[1]:.1f}) -> ({ln.end[0]:.1f}, "
+              f"{ln.end[1]:.1f}), heading {ln.heading:.0f}")
+    for p in result.predictions:
+        if p.layout.name != result.chosen:
+            print(f"  {p.layout.name}: {p.time_on_site_s / 60:.0f} min, units found {100 * p.found:.0f} %, "
+                  f"fewest soundings {p.min_soundings}" + ("" if p.meets_target else " (misses)"))
 
 
 def _check(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
@@ -86,7 +114,11 @@ def _check(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     path = Path(args.design)
     path = path / "plan.json" if path.is_dir() else path
     try:
-        plan = PlanResult.from_dict(json.loads(path.read_text(encoding="utf-8")))
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        if isinstance(doc, dict) and doc.get("kind") == "reef-plan":
+            raise InputError(f"{path}: a plan over a reef plan; --check compares a survey with a pile plan "
+                             "only (the check of a reef survey against its plan is not built)")
+        plan = PlanResult.from_dict(doc)
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise InputError(f"{path}: not a plan written by 'mbinspect plan' ({e}); expected plan.json"
                          ) from None

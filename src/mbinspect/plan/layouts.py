@@ -26,7 +26,8 @@ import numpy as np
 
 from ..geometry import bearing_to_vector, min_area_rectangle, vector_to_bearing
 
-__all__ = ["Frame", "Layout", "PlanLine", "candidates", "offsets_for", "structure_frame", "with_both_ways"]
+__all__ = ["Frame", "Layout", "PlanLine", "candidates", "racetrack", "offsets_for", "structure_frame",
+           "with_both_ways"]
 
 
 @dataclass(frozen=True)
@@ -134,7 +135,7 @@ def _across(f: Frame, a: float, margin: float, forward: bool) -> PlanLine:
     return line if forward else line.reversed()
 
 
-def _racetrack(lines: Sequence[PlanLine]) -> tuple[PlanLine, ...]:
+def racetrack(lines: Sequence[PlanLine]) -> tuple[PlanLine, ...]:
     """The lines with every other one reversed, so that each starts near where the last ended."""
     out: list[PlanLine] = []
     for line in lines:
@@ -174,23 +175,23 @@ def candidates(f: Frame, *, offsets: Sequence[float], margin: float) -> list[Lay
     tops_u = [_along(f, b, margin, True) for b in f.rows]
     tops_v = [_across(f, a, margin, True) for a in f.columns]
     out = [Layout("tops", f"{len(tops_u)} lines over the rows of tops, along the structure",
-                  _racetrack(tops_u))]
+                  racetrack(tops_u))]
     if len(f.columns) > 1 and len(f.rows) > 1:
         out.append(Layout("tops-grid", f"{len(tops_u) + len(tops_v)} lines over the rows and columns of tops",
-                          _racetrack(tops_u + tops_v)))
+                          racetrack(tops_u + tops_v)))
     for o in offsets:
         along = [_along(f, -f.half_v - o, margin, True), _along(f, f.half_v + o, margin, False)]
         across = [_across(f, a, margin, True) for a in _across_at(f, o)]
         out.append(Layout(f"along-{o:g}", f"2 lines along the structure, {o:g} m outside its outer rows",
-                          _racetrack(along)))
+                          racetrack(along)))
         if not _square(f):  # across a square structure is along it turned
             out.append(Layout(f"across-{o:g}", f"{len(across)} lines across the structure, {o:g} m outside "
-                              "each jacket's end columns", _racetrack(across)))
+                              "each jacket's end columns", racetrack(across)))
         out += [
             Layout(f"hash-{o:g}", f"the '#': {len(along + across)} lines {o:g} m outside the piles",
-                   _racetrack(along + across)),
+                   racetrack(along + across)),
             Layout(f"hash-{o:g}+tops", f"the '#' at {o:g} m and {len(tops_u)} lines over the rows of tops",
-                   _racetrack(along + across + tops_u)),
+                   racetrack(along + across + tops_u)),
         ]
     return out
 

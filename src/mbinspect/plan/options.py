@@ -8,7 +8,7 @@ from ..checks import fail, within
 from ..options import CHOICES, Options, option
 from ..simulate.sonar import SONARS
 
-__all__ = ["PlanOptions", "KNOT", "SOUND_SPEED"]
+__all__ = ["PlanOptions", "KNOT", "SOUND_SPEED", "S44_FEATURE"]
 
 #: One knot in m/s.
 KNOT = 1852.0 / 3600.0
@@ -17,6 +17,11 @@ KNOT = 1852.0 / 3600.0
 SOUND_SPEED = 1500.0
 
 CHOICES["plan_sonar"] = tuple(SONARS)
+
+#: IHO S-44 (edition 6) orders and the size (m) of the cubic feature each asks to detect
+#: (None: no feature detection asked).
+S44_FEATURE: dict[str, float | None] = {"exclusive": 0.5, "special": 1.0, "1a": 2.0, "1b": None, "2": None}
+CHOICES["s44_order"] = tuple(S44_FEATURE)
 
 
 def _max_angle(name: str, value: float) -> float:
@@ -37,9 +42,10 @@ class PlanOptions(Options):
     mbinspect.errors.ParameterError: depth: -21.0; expected a positive finite number
     """
 
-    radius: float = option(unit="m", check="positive", metavar="R", help="pile radius")
     depth: float = option(unit="m", check="positive", metavar="D",
                           help="water depth at the structure: the seabed below the vertical reference")
+    radius: float | None = option(None, unit="m", check="positive", kind=float, metavar="R",
+                                  help="pile radius (a pile design; a reef plan takes --kind)")
     height: float | None = option(None, unit="m", check="positive", kind=float,
                                   help="how far the pile tops stand above the seabed (not needed when the "
                                        "design gives each pile's top)")
@@ -71,10 +77,25 @@ class PlanOptions(Options):
     tilt_max: float = option(1.0, unit="deg", check="non_negative",
                              help="as-built lean of the piles in the simulated surveys, drawn up to this")
     workers: int = option(2, check="count", help="candidate surveys simulated at once, in as many processes")
+    kind: str | None = option(None, kind=str, metavar="DESIGN",
+                              help="a reef plan's units' design (cross2, cube, a JSON design) where the plan "
+                                   "has no kind column; its units are surveyed as built to it")
+    s44_order: str = option("1a", choices="s44_order",
+                            help="a reef plan's IHO S-44 order: its feature detection (exclusive 0.5 m, "
+                                 "special 1 m, 1a 2 m cubes) is tried with cubes laid among the units; "
+                                 "1b and 2 ask no feature detection")
+    feature_soundings: int = option(3, check="count",
+                                    help="soundings a cube of the order's size must get to count as detected")
+    min_soundings: int = option(50, check="count",
+                                help="soundings every reef unit must get in every simulated survey")
+    overlaps: str = option("0,0.25,0.5,0.75",
+                           help="a reef plan's candidate swath overlaps between adjacent lines (shares of "
+                                "the swath, comma-separated, each in [0, 0.9])")
 
     def check_together(self) -> None:
-        """Offsets parse as positive numbers; ``max_seeds`` is at least ``seeds``."""
+        """Offsets and overlaps parse; ``max_seeds`` is at least ``seeds``."""
         self.offset_values()
+        self.overlap_values()
         if self.max_seeds < self.seeds:
             raise fail("max_seeds", self.max_seeds, f"at least seeds ({self.seeds})")
 
@@ -90,3 +111,14 @@ class PlanOptions(Options):
         if not values or any(not 0 < v < 1000 for v in values):
             raise fail("offsets", self.offsets, "auto or positive numbers of metres, comma-separated")
         return values
+
+    def overlap_values(self) -> tuple[float, ...]:
+        """The overlaps given, each a share of the swath in [0, 0.9]."""
+        expected = "shares of the swath in [0, 0.9], comma-separated"
+        try:
+            values = tuple(float(v) for v in self.overlaps.split(",") if v.strip())
+        except ValueError:
+            raise fail("overlaps", self.overlaps, expected) from None
+        if not values or any(not 0.0 <= v <= 0.9 for v in values):
+            raise fail("overlaps", self.overlaps, expected)
+        return tuple(sorted(set(values)))

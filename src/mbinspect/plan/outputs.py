@@ -15,15 +15,16 @@ import numpy as np
 from ..report.html import html_page, html_table, number, parameter_table, verdict_banner
 from ..report.writers import Outputs, write_outputs
 from .predict import SECTORS
+from .reef_results import ReefPlanResult
 from .results import PlanResult, Prediction
 
-__all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows", "read_line_plan"]
+__all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows", "line_features", "read_line_plan"]
 
 #: ``lines.csv``'s columns.
 LINE_COLUMNS = ("line", "x_start", "y_start", "x_end", "y_end", "heading")
 
 
-def line_rows(result: PlanResult) -> list[dict[str, Any]]:
+def line_rows(result: PlanResult | ReefPlanResult) -> list[dict[str, Any]]:
     """The chosen layout's lines, one row each, in the order sailed (heading in degrees)."""
     best = result.best
     if best is None:
@@ -71,6 +72,13 @@ def read_line_plan(path: str | Path) -> list[tuple[tuple[float, float], tuple[fl
     return out
 
 
+def line_features(result: PlanResult | ReefPlanResult) -> list[dict[str, Any]]:
+    """The chosen layout's lines as GeoJSON features (the design's CRS)."""
+    return [{"type": "Feature", "geometry": {"type": "LineString", "coordinates": [
+        [r["x_start"], r["y_start"]], [r["x_end"], r["y_end"]]]},
+        "properties": {**r, "layout": result.chosen}} for r in line_rows(result)]
+
+
 def _features(result: PlanResult) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     best = result.best
     unseen = dict(best.unseen) if best else {}
@@ -79,10 +87,7 @@ def _features(result: PlanResult) -> tuple[list[dict[str, Any]], list[dict[str, 
               "properties": {"id": p.id, "group": p.group, "top": p.top,
                              "unseen_sides": ";".join(unseen.get(p.id, ())),
                              "level_sigma": levels.get(p.id)}} for p in result.piles]
-    lines = [{"type": "Feature", "geometry": {"type": "LineString", "coordinates": [
-        [r["x_start"], r["y_start"]], [r["x_end"], r["y_end"]]]},
-        "properties": {**r, "layout": result.chosen}} for r in line_rows(result)]
-    return piles, lines
+    return piles, line_features(result)
 
 
 def write_plan_outputs(result: PlanResult, out: str | Path, *, crs: str | None = None,

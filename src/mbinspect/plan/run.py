@@ -13,14 +13,17 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 from ..piles import Design, read_design
+from ..reefs.plan import ReefPlan
 from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Layout, candidates, offsets_for, structure_frame, with_both_ways
 from .options import KNOT, SOUND_SPEED, PlanOptions
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
+from .reef_results import ReefPlanResult
+from .reef_run import plan_reef_survey
 from .results import PlanResult, PredictedSpacing, Prediction
 
-__all__ = ["plan_survey", "design_piles", "ping_rate"]
+__all__ = ["plan_survey", "plan_input", "design_piles", "ping_rate"]
 
 #: A side with fewer soundings than this per survey counts as one no beam reaches.
 SEEN_MIN = 5
@@ -237,10 +240,40 @@ def _choose(search: _Search, layouts: list[Layout], given: bool) -> Prediction |
     return chosen
 
 
-def plan_survey(design: Design | str | Path, options: PlanOptions | None = None, *,
+#: Columns only a reef plan has, and only a pile design.
+REEF_COLUMNS = frozenset({"kind", "bearing_deg"})
+PILE_COLUMNS = frozenset({"top", "rake", "tilt_deg", "tilt_azimuth_deg"})
+
+
+def plan_input(path: str | Path, options: PlanOptions) -> str:
+    """Whether a CSV is a reef plan (``"reefs"``) or a pile design (``"piles"``): by its
+    columns, else by the options given (``radius`` for piles, ``kind`` for reef units).
+
+    Raises
+    ------
+    ParameterError
+        An ``id,x,y`` file with both or neither of ``radius`` and ``kind``.
+    """
+    from ..checks import csv_rows
+
+    columns, _ = csv_rows(Path(path), "design", "a pile design or a reef plan CSV with a header")
+    head = {c.strip() for c in columns}
+    if head & REEF_COLUMNS and not head & PILE_COLUMNS:
+        return "reefs"
+    if head & PILE_COLUMNS or (options.radius is not None and options.kind is None):
+        return "piles"
+    if options.kind is not None and options.radius is None:
+        return "reefs"
+    raise ParameterError(f"{path}: columns {','.join(columns)} could be a pile design or a reef plan; "
+                         "expected --radius R (piles) or --kind DESIGN (reef units), not both",
+                         option="radius")
+
+
+def plan_survey(design: Design | ReefPlan | str | Path, options: PlanOptions | None = None, *,
                 progress: Callable[[float], None] | None = None, layouts: Sequence[Layout] | None = None,
-                **overrides: Any) -> PlanResult:
-    """Plan the survey lines round a pile design.
+                **overrides: Any) -> PlanResult | ReefPlanResult:
+    """Plan the survey lines round a pile design, or over a reef plan
+    (:func:`~mbinspect.plan.reef_run.plan_reef_survey`; :func:`plan_input` tells which).
 
     Candidate layouts (:func:`~mbinspect.plan.layouts.candidates`) are each surveyed
     ``seeds`` times in the simulator with the sonar's beam and error model at the ping
@@ -266,10 +299,22 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
 
     Returns
     -------
-    PlanResult
+    PlanResult or ReefPlanResult
     """
     opts = (options or PlanOptions.from_given(overrides)) if not (options and overrides) else \
         options.replace(**overrides)
+    if isinstance(design, ReefPlan) or (isinstance(design, str | Path)
+                                        and plan_input(design, opts) == "reefs"):
+        sonar, measured = _sonar(opts)
+        opts = _options_with(opts, measured)
+        return plan_reef_survey(design, opts, progress=progress, sonar=sonar, measured=measured,
+                                rate=ping_rate(opts))
+    radius = opts.radius
+    if radius is None:
+        raise ParameterError("radius: missing; expected the piles' radius (--radius R) to plan lines round a "
+                             "pile design", option="radius")
+    if isinstance(design, ReefPlan):
+        raise ParameterError("radius: given with a reef plan; expected a pile design", option="radius")
     if not isinstance(design, Design):
         design = read_design(design)
     piles = design_piles(design, opts)
@@ -278,11 +323,11 @@ def plan_survey(design: Design | str | Path, options: PlanOptions | None = None,
     rate = ping_rate(opts)
     speed = opts.speed * KNOT
     xy = np.array([[p.x, p.y] for p in piles])
-    frame = structure_frame(xy, radius=opts.radius, groups=[p.group for p in piles])
+    frame = structure_frame(xy, radius=radius, groups=[p.group for p in piles])
     top_depth = -float(np.mean([p.top for p in piles])) + sonar.draft
     offsets = opts.offset_values() or offsets_for(top_depth, opts.max_angle)
     tried = list(layouts) if layouts is not None else candidates(frame, offsets=offsets, margin=opts.margin)
-    setting = Setting(sonar, speed / rate, speed, opts.depth, opts.radius, opts.tilt_max, frame.centre)
+    setting = Setting(sonar, speed / rate, speed, opts.depth, radius, opts.tilt_max, frame.centre)
     search = _Search(piles, setting, opts, progress, (len(tried) + BOTH_WAYS) * opts.seeds)
     chosen = _choose(search, tried, layouts is not None)
     predictions = [search.prediction(n) for n in search.layouts]
