@@ -2,7 +2,11 @@
 soundings and find it in its place on surveys of the real scene, and is the predicted spread
 of the reefs' heights and centres the spread those surveys show?
 
-Run: ``python benchmarks/study_reef_plan.py [--seeds 20] [--configs group-17m,group-25m]``.
+Run: ``python benchmarks/study_reef_plan.py [--seeds 20] [--configs group-17m,group-25m,xtf]``.
+
+``xtf`` is the real background: a group of four units injected beside the R2Sonic XTF's own
+line at four places through 1-degree cones, measured, against the plan's prediction for that
+line with the sonar measured from the file (``sonar_from``).
 
 For each configuration a ``reef-field`` group (16 units of one design at a planned bearing of
 30 degrees) is planned from its deployment plan (the preset's ``plan`` rows: where the units
@@ -105,9 +109,75 @@ def _summary(name: str, rs: list[dict]) -> list:
             "yes" if every else "no", len(seeds), f"{made['seconds']:.0f}"]
 
 
+#: The real background: the R2Sonic XTF (one line, 236 k soundings at 10 m), its boat at 1.2 kn
+XTF = Path(__file__).parents[2] / "shared" / "real" / "files" / "R2Testing_0009.xtf"
+
+
+def real_background() -> None:
+    """Four cross2 units (2 x 2, 7 m apart, planned bearing 30 degrees) injected beside the XTF's
+    own line at four places through 1-degree cones and measured with the plan, against the
+    plan's prediction for that line with the sonar measured from the same file."""
+    from mbinspect.inject import InjectedReef, inject
+    from mbinspect.io import PointCloud, read
+    from mbinspect.plan import Layout, PlanLine
+    from mbinspect.plan.check import sailed_lines
+    from mbinspect.simulate import named_sonar
+
+    cloud = read(XTF)
+    line = sailed_lines(cloud)[0]
+    layout = Layout("xtf-line", "the file's own line", (PlanLine(tuple(line["start"]), tuple(line["end"])),))
+    a, b = np.array(line["start"]), np.array(line["end"])
+    d = (b - a) / np.linalg.norm(b - a)
+    n = np.array([d[1], -d[0]])
+    mid = (a + b) / 2
+    rows, seconds = [], []
+    for k, (side, along) in enumerate([(1, -9.0), (1, 9.0), (-1, -9.0), (-1, 9.0)]):
+        centre = mid + along * d + side * 7.0 * n
+        pos = [tuple(centre + u * 3.5 * d + v * 3.5 * n) for u, v in ((-1, -1), (1, -1), (-1, 1), (1, 1))]
+        units = ReefPlan(tuple({"id": str(i + 1), "x": float(x), "y": float(y), "bearing_deg": 30.0,
+                                "kind": "cross2", "group": None} for i, (x, y) in enumerate(pos)), "xtf")
+        seabed = float(np.median(cloud.xyz[np.hypot(*(cloud.xyz[:, :2] - centre).T) < 8, 2]))
+        t = time.perf_counter()
+        plan = plan_survey(units, depth=-seabed, sonar_from=str(XTF), speed=1.2, seeds=5, s44_order="2",
+                           layouts=[layout], min_soundings=20)
+        seconds.append(time.perf_counter() - t)
+        inj = inject(cloud.xyz, dict(cloud.fields), beam=named_sonar("shallow-beam"), reefs=[
+            InjectedReef(i + 1, x, y, "cross2", bearing_deg=30.0) for i, (x, y) in enumerate(pos)])
+        res = extract_reefs(PointCloud(inj.xyz, dict(cloud.fields)), design="cross2", plan=units, seed=k,
+                            beam_width_deg=1.0, beam_correction=True)
+        placed = {str(r.plan.get("plan_id")): r for r in res.reefs if r.plan.get("plan_id") is not None}
+        pred = {u.id: u for u in plan.best.units}
+        for t_ in inj.truth["reefs"]:
+            i, r = str(t_["id"]), placed.get(str(t_["id"]))
+            rows.append({"found": r is not None, "soundings": inj.truth["counts"]["per_reef"][i],
+                         "planned": pred[i].min_soundings, "found_planned": pred[i].found,
+                         "dh": (r.height - t_["height"]) if r is not None else math.nan,
+                         "dc": math.hypot(r.x - t_["x"], r.y - t_["y"]) if r is not None else math.nan,
+                         "h_sigma": plan.best.height_sigma, "c_sigma": plan.best.centre_sigma})
+    dh, dc = _rms([r["dh"] for r in rows]), _rms([r["dc"] for r in rows])
+    hs = math.sqrt(np.mean([r["h_sigma"] ** 2 for r in rows]))
+    cs = math.sqrt(np.mean([r["c_sigma"] ** 2 for r in rows]))
+    found_planned = np.mean([r["found_planned"] for r in rows])
+    out = [["xtf, 4 placements of 4 units", len(rows), f"{100 * found_planned:.0f} %",
+            f"{100 * np.mean([r['found'] for r in rows]):.0f} %", min(r["planned"] for r in rows),
+            min(r["soundings"] for r in rows), f"{1000 * hs:.0f}", f"{1000 * dh:.0f}", f"{hs / dh:.2f}",
+            f"{1000 * cs:.0f}", f"{1000 * dc:.0f}", f"{cs / dc:.2f}", f"{np.mean(seconds):.0f}"]]
+    print(table(["real background", "units", "found (planned)", "found (injected)",
+                 "fewest soundings (planned)", "fewest (injected)", "height sigma mm (predicted)",
+                 "height error RMS mm", "predicted/error", "centre sigma mm (predicted)",
+                 "centre error RMS mm", "predicted/error", "plan s"], out))
+
+
 def main() -> None:
     given = "--configs" in sys.argv
-    chosen = sys.argv[sys.argv.index("--configs") + 1].split(",") if given else list(CONFIGS)
+    chosen = sys.argv[sys.argv.index("--configs") + 1].split(",") if given else [*CONFIGS, "xtf"]
+    if "xtf" in chosen:
+        real_background()
+        chosen.remove("xtf")
+        if not chosen:
+            return
+        if given:
+            sys.argv[sys.argv.index("--configs") + 1] = ",".join(chosen)
     for name in chosen:
         make_plan(name)
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -167,7 +167,8 @@ def _run(jobs: list[tuple[Layout, tuple[PlannedUnit, ...], ReefSetting, int]], w
 
 def plan_reef_survey(plan: ReefPlan | str | Path, options: PlanOptions, *,
                      progress: Callable[[float], None] | None = None, sonar: Any = None,
-                     measured: dict[str, Any] | None = None, rate: float | None = None) -> ReefPlanResult:
+                     measured: dict[str, Any] | None = None, rate: float | None = None,
+                     layouts: Sequence[Layout] | None = None) -> ReefPlanResult:
     """Plan the survey lines over a reef plan (``id,x,y[,bearing_deg][,kind][,group]``).
 
     Every candidate (:func:`coverage_layouts`) is surveyed ``seeds`` times; the one chosen
@@ -175,7 +176,8 @@ def plan_reef_survey(plan: ReefPlan | str | Path, options: PlanOptions, *,
     nearest: the most units found, then the most cubes detected, then the most soundings on
     the unit that got fewest. ``sonar``, ``measured`` and ``rate`` are the sonar, what was
     measured from ``sonar_from`` and the ping rate (:func:`~mbinspect.plan.plan_survey`
-    passes them).
+    passes them); ``layouts``, when given, are predicted instead of the candidates (the
+    lines a survey sailed, say).
     """
     if not isinstance(plan, ReefPlan):
         plan = read_plan(plan)
@@ -186,8 +188,8 @@ def plan_reef_survey(plan: ReefPlan | str | Path, options: PlanOptions, *,
     reach = max(u.reach for u in units) + BUFFER
     frame = structure_frame(xy, radius=max(u.reach for u in units))
     width = swath_width(options, sonar.draft)
-    tried = coverage_layouts(frame, width=width, overlaps=options.overlap_values(), reach=reach,
-                             margin=options.margin)
+    tried = list(layouts) if layouts is not None else coverage_layouts(
+        frame, width=width, overlaps=options.overlap_values(), reach=reach, margin=options.margin)
     ox, oy = frame.centre
     span = float(np.hypot(frame.half_u, frame.half_v)) + reach
     lo, hi = xy.min(axis=0) - reach, xy.max(axis=0) + reach  # the area the lines cover

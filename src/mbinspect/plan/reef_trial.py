@@ -2,15 +2,16 @@
 would: a reef trial.
 
 The scene is the plan alone: each unit built to its design at its planned place and bearing
-(a unit whose plan gives no bearing lies at a random one) on a rough seabed at the planned
-depth. When the S-44 order asks for feature detection, cubes of the order's size are laid at
-random over the area the lines cover, on the same seabed, and surveyed by the same lines in a
-scene of their own (no cube hides a unit or is taken for one). The survey sails the layout's
-lines with the sonar's beam and error model; :func:`~mbinspect.reefs.extract_reefs` measures
-the soundings with the units' designs (told the beam and taking its bloom off, as for any
-sonar of finite beams) and places them against the plan. A trial keeps, for each unit,
-whether a reef was found in its place, the soundings that fell on it, and its height and
-centre errors against the truth; for each cube, the soundings that fell on it.
+(a unit whose plan gives no bearing lies at a random one), settled :data:`SETTLE` into a
+rough seabed at the planned depth. When the S-44 order asks for feature detection, cubes of
+the order's size are laid at random over the area the lines cover, on the same seabed, and
+surveyed by the same lines in a scene of their own (no cube hides a unit or is taken for
+one). The survey sails the layout's lines with the sonar's beam and error model;
+:func:`~mbinspect.reefs.extract_reefs` measures the soundings with the units' designs (told
+the beam and taking its bloom off, as for any sonar of finite beams) and places them against
+the plan. A trial keeps, for each unit, whether a reef was found in its place, the soundings
+that fell on it, and its height and centre errors against the truth; for each cube, the
+soundings that fell on it.
 """
 
 from __future__ import annotations
@@ -28,6 +29,9 @@ from ..simulate import LABELS, Box, Line, Reef, Scene, Seabed, Sonar, Survey, re
 from .layouts import Layout
 
 __all__ = ["PlannedUnit", "ReefSetting", "ReefTrial", "run_reef_trial", "CLEAR"]
+
+#: Units settle this far (m) into the seabed, as the simulator's reef fields lay them.
+SETTLE = 0.1
 
 #: A feature cube's corners lie at least this far (m) beyond a unit's reach from its centre.
 CLEAR = 1.0
@@ -99,7 +103,7 @@ def _scenes(units: tuple[PlannedUnit, ...], s: ReefSetting, rng: np.random.Gener
     for k, u in enumerate(units):
         x, y = u.x - s.origin[0], u.y - s.origin[1]
         bearing = u.bearing_deg if u.bearing_deg is not None else float(rng.uniform(0.0, 360.0))
-        boxes = reef_boxes(u.kind, x, y, bearing, float(seabed.elevation(x, y)))
+        boxes = reef_boxes(u.kind, x, y, bearing, float(seabed.elevation(x, y)) - SETTLE)
         reef = Reef(k + 1, u.kind, x, y, bearing, boxes)
         reefs.append(reef)
         truth[u.id] = reef_truth(reef, seabed, s.origin)

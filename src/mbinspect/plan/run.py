@@ -308,7 +308,7 @@ def plan_survey(design: Design | ReefPlan | str | Path, options: PlanOptions | N
         sonar, measured = _sonar(opts)
         opts = _options_with(opts, measured)
         return plan_reef_survey(design, opts, progress=progress, sonar=sonar, measured=measured,
-                                rate=ping_rate(opts))
+                                rate=ping_rate(opts), layouts=layouts)
     radius = opts.radius
     if radius is None:
         raise ParameterError("radius: missing; expected the piles' radius (--radius R) to plan lines round a "
