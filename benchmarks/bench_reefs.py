@@ -84,7 +84,7 @@ def memory_run(path: str) -> None:
 
 def _run_measured(name: str, cmd: list[str], folder: Path) -> tuple[float, float, float, str]:
     """Run ``cmd``: its wall and CPU seconds (it and the children it waited for), its peak
-    resident GiB and the last line it printed about reefs or clusters."""
+    resident GiB and the line it printed with the count of reefs or clusters."""
     import os
 
     with open(folder / "stdout", "w+") as out, open(folder / "stderr", "w+") as err:
@@ -99,7 +99,8 @@ def _run_measured(name: str, cmd: list[str], folder: Path) -> tuple[float, float
     if proc.returncode != 0:
         raise SystemExit(f"{name} failed ({proc.returncode}): {text.strip()[-300:]}")
     lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
-    said = next((ln for ln in reversed(lines) if "reef" in ln or "cluster" in ln), lines[-1] if lines else "")
+    counted = [ln for ln in lines if " reefs in " in ln or "clusters" in ln]
+    said = (counted or lines or [""])[-1]
     return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 2**20, said
 
 
