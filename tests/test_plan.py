@@ -99,6 +99,27 @@ def test_a_trial_measures_the_design_and_sees_which_sides_lines_along_it_miss():
     assert c[2] + c[6] < 0.5 * (c[0] + c[4])
 
 
+def test_a_trial_sails_every_line_whole_as_the_surveyor_will(monkeypatch):
+    import mbinspect.plan.predict as predict
+
+    opts = PlanOptions(radius=0.75, depth=21.0, height=5.0)
+    piles = design_piles(SQUARE, opts)
+    f = structure_frame(np.array([[p.x, p.y] for p in piles]), radius=0.75)
+    layout = {c.name: c for c in candidates(f, offsets=(10.0,), margin=20.0)}["hash-10"]
+    sailed = []
+
+    def spy(scene, plan, seed):
+        sailed.extend(plan.lines)
+        raise StopIteration  # the lines are all this test needs
+
+    monkeypatch.setattr(predict, "survey", spy)
+    with pytest.raises(StopIteration):
+        run_trial(layout, piles, Setting(named_sonar("shallow"), 0.2, 2.0, 21.0, 0.75, 1.0, f.centre), 1)
+    ox, oy = f.centre
+    assert [ln.vertices for ln in sailed] == [((a[0] - ox, a[1] - oy), (b[0] - ox, b[1] - oy))
+                                              for a, b in ((ln.start, ln.end) for ln in layout.lines)]
+
+
 @pytest.fixture(scope="module")
 def planned(tmp_path_factory):
     root = tmp_path_factory.mktemp("plan")

@@ -3,9 +3,10 @@ drawn on every core while its tables are written.
 
 A job is a callable of no arguments. The workers are forked after the jobs are known, so a
 job's data (a survey's soundings, a result) reach the workers without being copied or
-pickled; only each job's return value comes back. Where a process cannot fork or may not
-start children (a daemonic worker of a pool or of Dask), or there is one core or one job,
-the jobs run here, one after another, when their results are asked for.
+pickled; only each job's return value comes back. Off Linux (macOS's system libraries are
+not safe to fork), in a process that may not start children (a daemonic worker of a pool or
+of Dask), with one core or one job, the jobs run here, one after another, when their results
+are asked for.
 
 Examples
 --------
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
@@ -62,7 +64,7 @@ def forked(jobs: Sequence[Callable[[], Any]],
     """
     global _JOBS
     n = min(workers or usable_cores(), len(jobs))
-    if n < 2 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon or _JOBS:
+    if n < 2 or not sys.platform.startswith("linux") or mp.current_process().daemon or _JOBS:
         yield lambda: [job() for job in jobs]
         return
     from concurrent.futures import ProcessPoolExecutor

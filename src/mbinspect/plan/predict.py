@@ -2,7 +2,7 @@
 
 The scene is the design alone (its piles standing on a flat, rough seabed at the planned depth,
 raked as designed, and each leaning up to ``tilt_max`` more as built), surveyed along the
-layout's lines with the sonar's beam and error model, and the soundings measured by
+layout's lines (each sailed whole) with the sonar's beam and error model, and the soundings measured by
 :func:`~mbinspect.piles.locate_piles` with the design. A trial keeps each spacing's error
 against the truth with the 1-sigma the run reported, each top level's, and how many side
 soundings each pile got in each of eight sectors round it (which sides no beam reaches).
@@ -24,7 +24,7 @@ from ..piles import Design, locate_piles
 from ..simulate import LABELS, Line, Pile, Scene, Seabed, Sonar, Survey, survey
 from .layouts import Layout
 
-__all__ = ["DesignPile", "as_built_lean", "Setting", "Trial", "SECTORS", "run_trial", "NEAR", "RUN_ON",
+__all__ = ["DesignPile", "as_built_lean", "Setting", "Trial", "SECTORS", "run_trial", "NEAR",
            "sector_counts"]
 
 #: Sectors round a pile, each 45 degrees, by the bearing (from the pile) of the face they hold.
@@ -33,10 +33,6 @@ SECTORS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 #: A trial keeps the soundings within this plan distance (m) of a pile centre: the seabed a
 #: pile is measured over, and all its own soundings.
 NEAR = 12.0
-
-#: A trial sails each line only this far (m) beyond the last pile abeam of it: a beam sees a
-#: pile only from the pings abeam of it.
-RUN_ON = 8.0
 
 
 @dataclass(frozen=True)
@@ -130,22 +126,6 @@ def sector_counts(east: np.ndarray, north: np.ndarray) -> tuple[int, ...]:
     return tuple(int(c) for c in np.bincount(((bearing + 22.5) // 45).astype(int) % 8, minlength=8))
 
 
-def _abeam(line: tuple[tuple[float, float], tuple[float, float]], centres: np.ndarray
-           ) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The part of a line from :data:`RUN_ON` before the first pile abeam to as far beyond the last."""
-    a, b = np.asarray(line[0]), np.asarray(line[1])
-    length = float(np.hypot(*(b - a)))
-    if length == 0:
-        return line
-    d = (b - a) / length
-    s = (centres - a) @ d
-    lo, hi = max(float(s.min()) - RUN_ON, 0.0), min(float(s.max()) + RUN_ON, length)
-    if hi <= lo:
-        return line
-    p, q = a + lo * d, a + hi * d
-    return (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))
-
-
 def run_trial(layout: Layout, piles: tuple[DesignPile, ...], setting: Setting, seed: int) -> Trial:
     """Survey ``layout`` over the design's piles with ``seed`` and measure them."""
     rng = np.random.default_rng([seed, 7])
@@ -153,9 +133,11 @@ def run_trial(layout: Layout, piles: tuple[DesignPile, ...], setting: Setting, s
     reach = max(math.hypot(x - ox, y - oy) for line in layout.lines for x, y in (line.start, line.end))
     scene = _scene(piles, setting, rng, reach)
     centres = np.array([[p.x - ox, p.y - oy] for p in piles])
-    lines = tuple(Line(_abeam(((ln.start[0] - ox, ln.start[1] - oy), (ln.end[0] - ox, ln.end[1] - oy)),
-                              centres), ping_spacing=setting.ping_spacing, speed=setting.speed)
-                  for ln in layout.lines)
+    # every line sailed whole, as the surveyor will: cut to the stretch abeam of the piles (8 m
+    # beyond them) the trials' spacing errors came out 8-9 mm RMS on the jacket's chosen lines
+    # where the whole lines gave 5.5 mm and the preset's own scene 5.9 mm
+    lines = tuple(Line(((ln.start[0] - ox, ln.start[1] - oy), (ln.end[0] - ox, ln.end[1] - oy)),
+                       ping_spacing=setting.ping_spacing, speed=setting.speed) for ln in layout.lines)
     cloud, label, ident = survey(scene, Survey(lines, setting.sonar), seed=int(rng.integers(2**31)))
     near = cKDTree(centres + [ox, oy]).query(cloud.xyz[:, :2], distance_upper_bound=NEAR)[0] < NEAR
     cloud, label, ident = cloud.subset(near), label[near], ident[near]
