@@ -139,7 +139,8 @@ def test_the_plan_chooses_the_fastest_layout_that_meets_the_target(planned):
     result = PlanResult.from_dict(doc)
     assert result.to_dict() == doc  # it reads back
     best = result.best
-    assert best is not None and best.meets_target and best.surveys == 2
+    # surveyed --seeds (2) times at least, more while its prediction lay near the target
+    assert best is not None and best.meets_target and 2 <= best.surveys <= PlanOptions(depth=1).max_seeds
     assert all(s.sigma <= 0.03 for s in best.spacings) and len(best.spacings) == 6
     # nothing faster was confirmed to meet it
     faster = [p for p in result.predictions if p.time_on_site_s < best.time_on_site_s]
@@ -189,7 +190,9 @@ def test_a_survey_run_is_checked_against_its_plan(planned, capsys):
     assert check["lines"][0]["sailed"] is None
     assert all(ln["sailed"] is not None and ln["offset"] < 0.6 and ln["covered"] > 0.9
                for ln in check["lines"][1:])
-    assert len(check["spacings"]) == 6 and all(s["predicted_sigma"] > 0 for s in check["spacings"])
+    # the spacings the remaining lines measured, each beside its predicted 1-sigma (fewer than the
+    # six when the plan had two lines and one was left out)
+    assert check["spacings"] and all(s["predicted_sigma"] > 0 for s in check["spacings"])
     assert "1 of" in check["notes"][0] and "line 1 (heading" in capsys.readouterr().out
 
 
