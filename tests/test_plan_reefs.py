@@ -153,3 +153,12 @@ def test_the_library_plans_a_reef_plan_given_as_rows():
                     min_soundings=10)
     assert isinstance(r, ReefPlanResult) and r.best is not None and r.best.meets_target
     assert r.best.cubes_detected is None and r.parameters["cubes_per_survey"] == 0
+    # called directly, the planner takes the named sonar and the ping rate the options give
+    from mbinspect.plan import plan_reef_survey
+    from mbinspect.plan.options import ping_rate
+
+    opts = PlanOptions(depth=12.0, sonar="shallow", overlaps="0", seeds=1, workers=1, s44_order="2",
+                       min_soundings=10)
+    direct = plan_reef_survey(plan, opts)
+    assert direct.parameters["ping_rate_hz"] == ping_rate(opts)
+    assert [p.layout.name for p in direct.predictions] == [p.layout.name for p in r.predictions]

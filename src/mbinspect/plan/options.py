@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..checks import fail, within
 from ..options import CHOICES, Options, option
 from ..simulate.sonar import SONARS
 
-__all__ = ["PlanOptions", "KNOT", "SOUND_SPEED", "S44_FEATURE"]
+__all__ = ["PlanOptions", "KNOT", "SOUND_SPEED", "S44_FEATURE", "ping_rate"]
 
 #: One knot in m/s.
 KNOT = 1852.0 / 3600.0
@@ -122,3 +123,10 @@ class PlanOptions(Options):
         if not values or any(not 0.0 <= v <= 0.9 for v in values):
             raise fail("overlaps", self.overlaps, expected)
         return tuple(sorted(set(values)))
+
+
+def ping_rate(options: PlanOptions) -> float:
+    """Pings a second: the sonar's highest rate, or the two-way travel time to the swath's
+    edge on the seabed, whichever is slower."""
+    slant = options.depth / math.cos(math.radians(options.max_angle))
+    return min(options.max_ping_rate, SOUND_SPEED / (2.0 * slant))

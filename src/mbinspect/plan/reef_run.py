@@ -24,9 +24,10 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..reef_designs import BUILTIN_DESIGNS, DesignBox
 from ..reefs.plan import ReefPlan, read_plan
+from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Frame, Layout, PlanLine, racetrack, structure_frame
-from .options import KNOT, S44_FEATURE, PlanOptions
+from .options import KNOT, S44_FEATURE, PlanOptions, ping_rate
 from .reef_results import ReefPlanResult, ReefPrediction, UnitPrediction
 from .reef_trial import PlannedUnit, ReefSetting, ReefTrial, run_reef_trial
 
@@ -175,14 +176,19 @@ def plan_reef_survey(plan: ReefPlan | str | Path, options: PlanOptions, *,
     meets the targets in the least time on site, else (with a warning) the one that comes
     nearest: the most units found, then the most cubes detected, then the most soundings on
     the unit that got fewest. ``sonar``, ``measured`` and ``rate`` are the sonar, what was
-    measured from ``sonar_from`` and the ping rate (:func:`~mbinspect.plan.plan_survey`
-    passes them); ``layouts``, when given, are predicted instead of the candidates (the
-    lines a survey sailed, say).
+    measured from ``sonar_from`` and the ping rate, which :func:`~mbinspect.plan.plan_survey`
+    passes (by default the named sonar, its swath at most twice ``max_angle``, and
+    :func:`~mbinspect.plan.options.ping_rate`: ``sonar_from`` is read by ``plan_survey``);
+    ``layouts``, when given, are predicted instead of the candidates (the lines a survey
+    sailed, say).
     """
     if not isinstance(plan, ReefPlan):
         plan = read_plan(plan)
     units = planned_units(plan, options)
-    assert sonar is not None and rate is not None
+    if sonar is None:
+        sonar = named_sonar(options.sonar)
+        sonar = dataclasses.replace(sonar, swath_deg=min(sonar.swath_deg, 2.0 * options.max_angle))
+    rate = ping_rate(options) if rate is None else rate
     speed = options.speed * KNOT
     xy = np.array([[u.x, u.y] for u in units])
     reach = max(u.reach for u in units) + BUFFER

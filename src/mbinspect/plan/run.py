@@ -17,7 +17,7 @@ from ..reefs.plan import ReefPlan
 from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Layout, candidates, offsets_for, structure_frame, with_both_ways
-from .options import KNOT, SOUND_SPEED, PlanOptions
+from .options import KNOT, PlanOptions, ping_rate
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
 from .reef_results import ReefPlanResult
 from .reef_run import plan_reef_survey
@@ -67,13 +67,6 @@ def _sonar(opts: PlanOptions) -> tuple[Any, dict[str, Any] | None]:
 
         sonar, measured = sonar_from_file(opts.sonar_from, sonar, seed=opts.seed)
     return dataclasses.replace(sonar, swath_deg=min(sonar.swath_deg, 2.0 * opts.max_angle)), measured
-
-
-def ping_rate(options: PlanOptions) -> float:
-    """Pings a second: the sonar's highest rate, or the two-way travel time to the swath's
-    edge on the seabed, whichever is slower."""
-    slant = options.depth / math.cos(math.radians(options.max_angle))
-    return min(options.max_ping_rate, SOUND_SPEED / (2.0 * slant))
 
 
 def _options_with(opts: PlanOptions, measured: dict[str, Any] | None) -> PlanOptions:
