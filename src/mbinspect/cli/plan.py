@@ -73,8 +73,10 @@ def cmd_plan(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> in
             write_plan_outputs(result, tmp, crs=crs, figures=not args.no_figures)
         else:
             write_reef_plan_outputs(result, tmp, crs=crs, figures=not args.no_figures)
-    if rep.verbosity >= 0:
-        _print(result) if isinstance(result, PlanResult) else _print_reefs(result)
+    if rep.verbosity >= 0 and isinstance(result, PlanResult):
+        _print(result)
+    elif rep.verbosity >= 0:
+        _print_reefs(result)
     rep.info(f"results in {out}/ (lines.csv, lines.geojson, plan.json, report.html)")
     return 0
 

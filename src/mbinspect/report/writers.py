@@ -144,9 +144,9 @@ def write_outputs(outputs: Outputs, out: str | Path, *, figures: bool = True,
     jobs = outputs.figures(out) if figures and outputs.figures is not None else []
     written: list[str] = []
     with forked(jobs) as drawn:
-        images: dict[str, bytes] = {}
+        images: dict[str, bytes] | None = None  # until a writer needs them
         for name in writers:
-            if name in NEED_FIGURES and jobs and not images:
+            if name in NEED_FIGURES and images is None:
                 images = {n: png for part in drawn() for n, png in part.items()}
-            written += WRITERS[name](outputs, out, images)
+            written += WRITERS[name](outputs, out, images or {})
     return written
