@@ -27,6 +27,24 @@ def real_clouds() -> Iterator[tuple[str, Any]]:
             continue
 
 
+def own_line(path: Path) -> tuple[Any, Any, Any, Any, Any]:
+    """A real one-line file, its own line as a plan layout, the line's middle, and unit vectors
+    along it and to its right: (cloud, layout, middle, along, right), for objects injected
+    beside the line and planned on it."""
+    import numpy as np
+
+    from mbinspect.io import read
+    from mbinspect.plan import Layout, PlanLine
+    from mbinspect.plan.check import sailed_lines
+
+    cloud = read(path)
+    line = sailed_lines(cloud)[0]
+    layout = Layout("xtf-line", "the file's own line", (PlanLine(tuple(line["start"]), tuple(line["end"])),))
+    a, b = np.array(line["start"]), np.array(line["end"])
+    d = (b - a) / np.linalg.norm(b - a)
+    return cloud, layout, (a + b) / 2, d, np.array([d[1], -d[0]])
+
+
 class TreeMemory:
     """The peak memory of this process and its children together, sampled every
     ``interval`` seconds in a thread: the sum of each process's proportional set size (PSS,

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import run_study, table  # noqa: E402
+from _common import own_line, run_study, table  # noqa: E402
 from mbinspect.piles import Design, locate_piles  # noqa: E402
 from mbinspect.plan import plan_survey, structure_frame  # noqa: E402
 from mbinspect.plan.layouts import candidates  # noqa: E402
@@ -131,18 +131,10 @@ def real_background() -> None:
     line at four places through 1-degree beams, measured, against the plan's prediction for
     that line with the sonar measured from the same file (``sonar_from``)."""
     from mbinspect.inject import InjectedPile, inject
-    from mbinspect.io import PointCloud, read
-    from mbinspect.plan import Layout, PlanLine
-    from mbinspect.plan.check import sailed_lines
+    from mbinspect.io import PointCloud
     from mbinspect.simulate import named_sonar
 
-    cloud = read(XTF)
-    line = sailed_lines(cloud)[0]
-    layout = Layout("xtf-line", "the file's own line", (PlanLine(tuple(line["start"]), tuple(line["end"])),))
-    a, b = np.array(line["start"]), np.array(line["end"])
-    d = (b - a) / np.linalg.norm(b - a)
-    n = np.array([d[1], -d[0]])
-    mid = (a + b) / 2
+    cloud, layout, mid, d, n = own_line(XTF)
     rows = []
     for k, (side, along) in enumerate([(1, -5.0), (1, 5.0), (-1, -5.0), (-1, 5.0)]):
         centre = mid + along * d + side * 6.5 * n

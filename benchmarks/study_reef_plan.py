@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import run_study, table  # noqa: E402
+from _common import own_line, run_study, table  # noqa: E402
 from mbinspect.plan import plan_survey  # noqa: E402
 from mbinspect.reefs import extract_reefs  # noqa: E402
 from mbinspect.reefs.plan import ReefPlan  # noqa: E402
@@ -118,18 +118,10 @@ def real_background() -> None:
     own line at four places through 1-degree cones and measured with the plan, against the
     plan's prediction for that line with the sonar measured from the same file."""
     from mbinspect.inject import InjectedReef, inject
-    from mbinspect.io import PointCloud, read
-    from mbinspect.plan import Layout, PlanLine
-    from mbinspect.plan.check import sailed_lines
+    from mbinspect.io import PointCloud
     from mbinspect.simulate import named_sonar
 
-    cloud = read(XTF)
-    line = sailed_lines(cloud)[0]
-    layout = Layout("xtf-line", "the file's own line", (PlanLine(tuple(line["start"]), tuple(line["end"])),))
-    a, b = np.array(line["start"]), np.array(line["end"])
-    d = (b - a) / np.linalg.norm(b - a)
-    n = np.array([d[1], -d[0]])
-    mid = (a + b) / 2
+    cloud, layout, mid, d, n = own_line(XTF)
     rows, seconds = [], []
     for k, (side, along) in enumerate([(1, -9.0), (1, 9.0), (-1, -9.0), (-1, 9.0)]):
         centre = mid + along * d + side * 7.0 * n
