@@ -14,7 +14,8 @@ error (RMS, max, within 3°, within 2σ). Least depths of the matched reefs: err
 true top (+ shoal), within the 95 % TVU, deeper than the truth beyond it, median TVU. Configs:
 ``reef-field`` (the shallow sonar), ``reef-field-tide`` (a 2.4 m tide: heights from the water
 level at each ping, put back on chart datum with the simulated gauge's ``tide.csv``),
-``reef-field-beam`` (1° cones), ``reef-field-classic`` (the idealised sonar).
+``reef-field-beam`` (1° cones; ``-told``: the reef chain told the beam),
+``reef-field-classic`` (the idealised sonar).
 
 ``--real``: four reefs injected into each real file (``study_inject.py``'s square): least
 depth error against the injected tops (the files are one line each: their TVU is unknown,
@@ -40,10 +41,12 @@ from mbinspect.reefs.plan import ReefPlan  # noqa: E402
 from mbinspect.simulate import simulate, write_bundle  # noqa: E402
 
 PLAN_BEARING = 30.0
+TOLD = {"beam_correction": True, "beam_width_deg": 1.0}  # the shallow-beam sonar's 1° cones
 CONFIGS: dict[str, dict] = {
     "reef-field": {},
     "reef-field-tide": {"tide_range": 2.4, "tide_mean": 1.2},
     "reef-field-beam": {"sonar": "shallow-beam"},
+    "reef-field-beam-told": {"sonar": "shallow-beam"},
     "reef-field-classic": {"sonar": "classic"},
 }
 
@@ -57,7 +60,8 @@ def run_one(args: tuple[str, int]) -> list[dict]:
             write_bundle(Path(tmp), {"tide": sim.truth["tide"]})
             cloud = on_reference(cloud, vertical_reference(Path(tmp) / "tide.csv"), "simulated")
     plan = ReefPlan(tuple({**u, "id": str(u["id"])} for u in sim.truth["plan"]), "simulated plan")
-    res = extract_reefs(cloud, design="cross2,cross1", plan=plan)
+    told = TOLD if name.endswith("-told") else {}
+    res = extract_reefs(cloud, design="cross2,cross1", plan=plan, **told)
     truth = {str(t["id"]): t for t in sim.truth["reefs"]}
     units = {str(u["id"]): u for u in sim.truth["plan"]}
     row = {"config": name, "seed": seed, "right": 0, "wrong": 0, "extra": 0,

@@ -46,8 +46,11 @@ from mbinspect.inject import InjectedPile, InjectedReef, inject  # noqa: E402
 from mbinspect.io import PointCloud  # noqa: E402
 from mbinspect.piles import locate_piles  # noqa: E402
 from mbinspect.reefs import extract_reefs  # noqa: E402
+from mbinspect.simulate.scene import MATERIAL_BS  # noqa: E402
 
 SIDE, RADIUS, HEIGHT = 6.0, 0.5, 2.0  # side: at most
+#: an injected pile's echo over the seabed's (dB): the simulator's concrete over its sediment
+CONTRAST_DB = MATERIAL_BS["concrete"] - MATERIAL_BS["sediment"]
 #: A row's piles stand 1.2 m proud: in 3.5 m of water a 50° swath sees the top of a 2 m pile
 #: only in a sliver (its beams meet the side first), as a real sonar would.
 ROW_HEIGHT = 1.6
@@ -210,9 +213,9 @@ def main() -> None:
                     help="with --beam: locate_piles is not told the beam (beam_width_deg 0)")
     args = ap.parse_args()
     beam = Beam(beam_across_deg=args.beam, detection=args.detection) if args.beam > 0 else None
-    # the injection gives the steel's echo 20 dB over the seabed's (the simulator's materials)
-    # but leaves the soundings' intensities as they were: the correction is told the contrast
-    told = ({"beam_width_deg": args.beam, "detection": args.detection, "beam_contrast_db": 20.0}
+    # the injection gives a pile's echo the simulator's concrete over its sediment (18 dB) but
+    # leaves the soundings' intensities as they were: the correction is told that contrast
+    told = ({"beam_width_deg": args.beam, "detection": args.detection, "beam_contrast_db": CONTRAST_DB}
             if beam and not args.untold else {})
     print(f"beam: {args.beam:g} deg, {args.detection} detection; locate_piles "
           f"{'told it' if told else 'not told it'}" if beam else "beam: thin rays")
@@ -223,7 +226,7 @@ def main() -> None:
             if layout != "square":
                 continue
             reef_told = ({"beam_correction": True, "beam_width_deg": args.beam, "detection": args.detection,
-                          "beam_contrast_db": 20.0} if beam and not args.untold else None)
+                          "beam_contrast_db": CONTRAST_DB} if beam and not args.untold else None)
             reef_rows.append(_reef_row(name, cloud, site(cloud)[2], args.placements, beam, reef_told))
         print(table(["file", "depth m", "side m", "soundings per reef (median)", "reefs found", "false reefs",
                      "others", "height err median cm", "height err max cm", "area err mean", "runs stopped",

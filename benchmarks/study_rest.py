@@ -8,7 +8,8 @@ Simulator rows: ``reef-field`` fields of 16 units a group (``mixed``: cross2, cr
 and triangle in turn; ``cross2``: double-layer crosses only, whose upside-down shows the
 same plan as upright), six units a field overturned (on a side or upside down: each design's
 distinct ways, :func:`mbinspect.design_solids.distinct_orientations`), every unit leaning
-0-12° (``-level``: none; ``-beam``: cast through 1° cones), four reef-sized rocks among
+0-12° (``-level``: none; ``-beam``: cast through 1° cones; ``-told``: the reef chain told
+the beam), four reef-sized rocks among
 them. Columns: overturned units found as reefs and flagged overturned; upright units found,
 flagged overturned in error, left undecided; the top tilt's error against the true lean for
 the units upright or upside down (RMS, max, within 2σ); reefs found where no unit is
@@ -44,8 +45,11 @@ CONFIGS: dict[str, dict] = {
     "mixed-level": {"groups": "mixed", "overturned": 6, **FIELD},
     "mixed-beam": {"groups": "mixed", "overturned": 6, "tilt_max_deg": 12.0, "sonar": "shallow-beam",
                    **FIELD},
+    "mixed-beam-told": {"groups": "mixed", "overturned": 6, "tilt_max_deg": 12.0, "sonar": "shallow-beam",
+                        **FIELD},
     "default": {},
 }
+TOLD = {"beam_correction": True, "beam_width_deg": 1.0}  # the shallow-beam sonar's 1° cones
 
 
 def _score(truth: list[dict], reefs: list) -> dict:
@@ -71,7 +75,7 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     name, seed = args
     sim = simulate("reef-field", seed=seed, **CONFIGS[name])
     t = time.perf_counter()
-    res = extract_reefs(sim.cloud, design=DESIGNS)
+    res = extract_reefs(sim.cloud, design=DESIGNS, **(TOLD if name.endswith("-told") else {}))
     seconds = time.perf_counter() - t
     return [{"config": name, "seconds": seconds, **_score(sim.truth["reefs"], list(res.reefs))}]
 

@@ -98,3 +98,52 @@ def test_piles_command_through_the_beam(tmp_path, capsys):
     assert main(["piles", str(tmp_path / "s.npz"), "--radius", "0.75", "--beam-width-deg", "12",
                  "--out", str(tmp_path / "bad")]) == 2
     assert "--beam-width-deg: 12" in capsys.readouterr().err
+
+
+def _one_line(seed=0):
+    """A line of pings over a flat seabed 10 m down: 121 pings 0.1 m apart along y, 101 beams
+    to ±60° across, 5 mm of noise."""
+    rng = np.random.default_rng(seed)
+    ang = np.linspace(-60.0, 60.0, 101)
+    pings = np.repeat(np.arange(121), len(ang))
+    beam = np.tile(ang, 121)
+    x = 500.0 + 10.0 * np.tan(np.radians(beam))
+    y = 2000.0 + 0.1 * pings
+    z = -10.0 + rng.normal(0.0, 0.005, len(x))
+    return np.column_stack([x, y, z]), {"ping": pings, "beam_angle": beam}
+
+
+def test_a_top_no_wall_sounding_shows_is_centred_as_the_beams_heard_it():
+    from mbinspect.inject import InjectedPile, inject
+    from mbinspect.piles.beam import top_through_beam
+
+    xyz, fields = _one_line()
+    beam = Beam(beam_across_deg=1.0)
+    inj = inject(xyz, fields, piles=[InjectedPile(1, 500.9, 2006.0, 0.5, height=2.0)], beam=beam)
+    t = inj.truth["piles"][0]
+    top = inj.xyz[:, 2] > t["z"] - 0.15
+    # the cones hear the top well beyond its edge: its soundings reach 5 cm and more past the rim
+    assert np.hypot(inj.xyz[top, 0] - t["x"], inj.xyz[top, 1] - t["y"]).max() > t["radius"] + 0.05
+    start = PileModel(np.array([t["x"] + 0.04, t["y"] - 0.03, t["z"]]), np.array([0.0, 0.0, 1.0]), 0.5,
+                      t["seabed_z"])
+    fit = top_through_beam(inj.xyz, fields["ping"], fields["beam_angle"], start, beam, reach=3.0,
+                           contrast_db=18.0)
+    assert fit is not None
+    err = fit[0] - [t["x"], t["y"]]
+    sigma = np.sqrt(np.diag(fit[1]))
+    assert np.hypot(*err) < 0.008
+    assert np.all(np.abs(err) <= 3 * sigma) and np.all(sigma < 0.015)
+
+
+def test_a_pings_transducer_is_placed_from_its_seabed_not_from_a_pile_under_it():
+    from mbinspect.pings import ping_geometry
+
+    xyz, fields = _one_line()
+    lifted = xyz.copy()
+    under = (fields["ping"] == 60) & (np.abs(fields["beam_angle"]) < 5)
+    lifted[under, 2] += 2.0  # a pile's top under the nadir beams of one ping
+    o, _, _ = ping_geometry(lifted, fields["ping"], fields["beam_angle"])
+    ping60 = fields["ping"] == 60
+    assert abs(o[ping60, 2].mean()) > 1.0  # the top lifts the transducer
+    o, _, ok = ping_geometry(lifted, fields["ping"], fields["beam_angle"], fit=~under)
+    assert ok.all() and np.abs(o[ping60, 2]).max() < 0.05 and np.abs(o[ping60, 0] - 500.0).max() < 0.05

@@ -42,10 +42,15 @@ def ping_origins(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *
     return origins, ok
 
 
-def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *, min_beams: int = 5
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, *, min_beams: int = 5,
+                  fit: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each sounding's transducer position and its ping's swath axis (a horizontal unit vector
     to starboard), as :func:`ping_origins` estimates them; both NaN where it cannot.
+
+    ``fit`` (bool, shape (N,)) names the soundings each ping's estimate is made from (its
+    seabed: an object's soundings stand off the straight line its beams draw on a seabed, and
+    a pile's top under the nadir beams would lift the transducer by the pile's height); every
+    sounding of a ping so estimated gets its ping's transducer.
 
     Returns
     -------
@@ -57,6 +62,16 @@ def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, 
     axes = np.full_like(pts, np.nan)
     if len(pts) == 0:
         return origins, axes, np.zeros(0, bool)
+    if fit is not None:
+        keys, inv = np.unique(ping, return_inverse=True)
+        inv, rows = inv.ravel(), np.flatnonzero(fit)
+        o, a, _ = ping_geometry(pts[rows], inv[rows], np.asarray(beam_angle)[rows], min_beams=min_beams)
+        first = np.full(len(keys), -1)
+        first[inv[rows[::-1]]] = np.arange(len(rows))[::-1]  # a fitted row of each ping
+        have = first[inv] >= 0
+        src = first[inv][have]
+        origins[have], axes[have] = o[src], a[src]
+        return origins, axes, np.isfinite(origins[:, 0])
     tan = np.tan(np.radians(np.clip(beam_angle, -85, 85)))
     _, inv = np.unique(ping, return_inverse=True)
     inv = inv.ravel()
@@ -71,14 +86,14 @@ def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, 
     st, stt = np.bincount(inv, tan), np.bincount(inv, tan * tan)
     den = n * stt - st * st
     with np.errstate(divide="ignore", invalid="ignore"):
-        fit = []
+        lines = []
         for col in (pts[:, 0], pts[:, 1]):
             # centred on each ping's mean so that eastings of 10^5 m lose no precision
             mean = np.bincount(inv, col) / n
             c = col - mean[inv]
             slope = (n * np.bincount(inv, tan * c) - st * np.bincount(inv, c)) / den
-            fit.append((mean + (np.bincount(inv, c) - slope * st) / n, slope))
-    (x0, sx), (y0, sy) = fit
+            lines.append((mean + (np.bincount(inv, c) - slope * st) / n, slope))
+    (x0, sx), (y0, sy) = lines
     h = np.hypot(sx, sy)
     usable &= h > 0
     # the height from the three soundings nearest nadir (their median)

@@ -10,7 +10,16 @@ import numpy as np
 from .options import PileOptions
 from .results import PileFit, PileMeasure
 
-__all__ = ["assess_pile", "other_method_piles"]
+__all__ = ["PLAN_FLAG", "assess_pile", "other_method_piles", "plan_flag"]
+
+#: How the flag of a plan 1-sigma over ``max_sigma`` begins (:func:`plan_flag`).
+PLAN_FLAG = "plan uncertainty "
+
+
+def plan_flag(sigma: float, max_sigma: float) -> str:
+    """The flag of a plan 1-sigma (m) over ``max_sigma`` (m)."""
+    return (f"{PLAN_FLAG}{1000 * sigma:.1f} mm (1 sigma) exceeds {1000 * max_sigma:.1f} mm: "
+            "the data cannot support a centimetre answer")
 
 
 def assess_pile(pid: int, m: PileMeasure, options: PileOptions) -> PileFit:
@@ -46,8 +55,7 @@ def assess_pile(pid: int, m: PileMeasure, options: PileOptions) -> PileFit:
     if m.method != "centre" and m.coverage < o.min_coverage_deg:
         flags.append(f"side scanned over {m.coverage:.0f} deg < {o.min_coverage_deg:.0f} deg")
     if not (m.sigma_xy <= o.max_sigma):
-        flags.append(f"plan uncertainty {1000 * m.sigma_xy:.1f} mm (1 sigma) exceeds "
-                     f"{1000 * o.max_sigma:.1f} mm: the data cannot support a centimetre answer")
+        flags.append(plan_flag(m.sigma_xy, o.max_sigma))
     if m.radius_fitted is not None and abs(m.radius_fitted - o.radius) > max(0.03, 0.05 * o.radius):
         flags.append(f"the points show a radius of {m.radius_fitted:.3f} m, not the prior "
                      f"{o.radius:.3f} m")

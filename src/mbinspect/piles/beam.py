@@ -50,7 +50,7 @@ from ..geometry import ray_cylinder
 from ..pings import ping_geometry
 from .results import PileFit
 
-__all__ = ["PileModel", "BeamCorrection", "through_beam", "pile_models", "beam_contrast"]
+__all__ = ["PileModel", "BeamCorrection", "through_beam", "top_through_beam", "pile_models", "beam_contrast"]
 
 
 @dataclass(frozen=True)
@@ -114,7 +114,8 @@ def through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, m
     for model in models:
         plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
         local = np.flatnonzero(plan < reach)
-        origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local])
+        origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local],
+                                             fit=_on_seabed(pts[local, 2], model))
         sel = _near(pts[local], origins, known, model, beam)
         halves.append(0.0)
         if not len(sel):
@@ -141,6 +142,12 @@ def _near(pts: np.ndarray, origins: np.ndarray, known: np.ndarray, model: PileMo
     plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
     reach = model.radius + rng * beam.spread() + 0.5
     return np.flatnonzero(known & (plan < reach) & (pts[:, 2] > model.seabed_z - 1.0))
+
+
+def _on_seabed(z: np.ndarray, model: PileModel) -> np.ndarray:
+    """The soundings at the seabed's level round a pile (within 0.3 m of it, or a quarter of
+    the pile's height): those its pings' transducers are placed from."""
+    return z < model.seabed_z + min(0.3, 0.25 * (float(model.top[2]) - model.seabed_z))
 
 
 @dataclass(frozen=True)
@@ -206,3 +213,132 @@ def beam_contrast(intensity: np.ndarray | None, pts: np.ndarray, piles: Sequence
         on |= (np.abs(plan - p.radius) < 0.1) & (pts[:, 2] < p.z - 0.2)
         off |= (plan > p.radius + 1.0) & (plan < p.radius + 4.0)
     return echo_contrast_db(intensity[on], intensity[off])
+
+
+#: Ping blocks of the jackknife that gives a top's centre through the beam its covariance.
+TOP_BLOCKS = 8
+
+#: The centre search for a top seen through the beam: a coarse grid (half-width, step) about
+#: the first centre, then a fine one about the coarse grid's best (m).
+TOP_COARSE, TOP_FINE = (0.2, 0.02), (0.03, 0.0025)
+
+#: How well the steel's contrast over the seabed is known (dB, 1-sigma): what it moves a
+#: top's centre fitted through the beam joins the centre's covariance.
+TOP_CONTRAST_SIGMA_DB = 2.0
+
+
+def top_through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, model: PileModel,
+                     beam: Beam, *, reach: float, contrast_db: float = DEFAULT_CONTRAST_DB
+                     ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The plan centre of a top no wall sounding shows, fitted to what its beams returned.
+
+    Through a cone, a beam whose cone takes in part of the top hears the steel's echo louder
+    than the seabed's once the pattern's weight on the top, times the contrast, outweighs
+    its weight on the seabed (the detection follows the louder window of echoes): the top is
+    heard as a disc grown by the footprint, and the soundings at its level stand on their
+    beams' axes, off the steel (the wings). So the centre is the one for which each beam near
+    the top is predicted as it was heard: at the top's level, or on the seabed (a sounding
+    between the two is the wall's echo, which says nothing of the top's edge). Each beam's
+    sub-rays are carried to the top's plane; the centres of a grid about the first are
+    counted by the beams they mispredict, and the centre is the mean of the best, weighted
+    by ``exp(-(count - fewest))``. The covariance is a jackknife over :data:`TOP_BLOCKS`
+    blocks of pings, each from the same counts, plus what the contrast's own uncertainty
+    (:data:`TOP_CONTRAST_SIGMA_DB`) moves the centre.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        The soundings as read (the wings are what this fit reads).
+    ping, beam_angle : ndarray, shape (N,)
+        Each sounding's ping key and beam angle (degrees).
+    model : PileModel
+        The pile as first measured: its top centre and level, radius, seabed.
+    beam : Beam
+    reach : float
+        The neighbourhood whose soundings place the beams (m).
+    contrast_db : float
+        The steel's echo over the seabed's (dB).
+
+    Returns
+    -------
+    (centre (2,), covariance (2, 2)) or None
+        None where too few beams near the top are placed, or too few hear its level.
+    """
+    pts = np.asarray(points, np.float64)
+    plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
+    local = np.flatnonzero(plan < reach)
+    origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local],
+                                         fit=_on_seabed(pts[local, 2], model))
+    rng = np.linalg.norm(pts[local] - np.where(known[:, None], origins, pts[local]), axis=1)
+    height = float(model.top[2]) - model.seabed_z
+    z = pts[local, 2]
+    top = z > model.top[2] - min(0.15, 0.25 * height)
+    sel = np.flatnonzero(known & (top | _on_seabed(z, model)) & (origins[:, 2] > model.top[2]))
+    hits = _on_top_plane(origins[sel], pts[local[sel]], axes[sel], beam, float(model.top[2]))
+    # the beams whose cones cross the top's plane near its edge (a beam past the far rim
+    # sounds the seabed in the pile's shadow, well beyond it)
+    gap = np.hypot(hits[..., 0] - model.top[0], hits[..., 1] - model.top[1]).min(axis=1) - model.radius
+    near = gap < 2 * TOP_COARSE[0] + rng[sel] * beam.spread()
+    sel, hits = sel[near], hits[near]
+    if len(sel) < 20 or top[sel].sum() < 5:
+        return None
+    _, block = np.unique(ping[local[sel]], return_inverse=True)
+    block = block.ravel() * TOP_BLOCKS // (block.max() + 1)
+    fits = [_top_centres(hits, top[sel], block, beam.grid()[2], contrast_db + dc, model)
+            for dc in (0.0, -TOP_CONTRAST_SIGMA_DB, TOP_CONTRAST_SIGMA_DB)]
+    centre, parts = fits[0]
+    if len(parts) < 3:
+        return None
+    dev = np.array(parts) - np.mean(parts, axis=0)
+    contrast = (fits[2][0] - fits[1][0]) / 2  # one sigma of the contrast's effect
+    return centre, (len(parts) - 1) / len(parts) * dev.T @ dev + np.outer(contrast, contrast)
+
+
+def _top_centres(hits: np.ndarray, heard: np.ndarray, block: np.ndarray, pattern: np.ndarray,
+                 contrast_db: float, model: PileModel) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The centre from every beam, and from all but each block of pings in turn."""
+    contrast = 10 ** (contrast_db / 10)
+    grid = _grid(np.asarray(model.top[:2], float), *TOP_COARSE)
+    miss = _mispredicted(grid, hits, heard, pattern, contrast, model.radius)
+    grid = _grid(grid[int(np.argmin(miss.sum(axis=1)))], *TOP_FINE)
+    miss = _mispredicted(grid, hits, heard, pattern, contrast, model.radius)
+    return _best(grid, miss.sum(axis=1)), [_best(grid, miss[:, block != g].sum(axis=1))
+                                           for g in range(TOP_BLOCKS) if (block == g).any()]
+
+
+def _on_top_plane(origins: np.ndarray, pts: np.ndarray, axes: np.ndarray, beam: Beam, z: float
+                  ) -> np.ndarray:
+    """Where each beam's sub-rays cross the plane of the top, (B, S, 2)."""
+    ray = pts - origins
+    d = ray / np.linalg.norm(ray, axis=1, keepdims=True)
+    a, b = frame(d, axes)
+    dirs = cone_directions(beam, d, a, b).reshape(len(d), -1, 3)
+    t = (z - origins[:, None, 2]) / np.minimum(dirs[..., 2], -1e-9)
+    return origins[:, None, :2] + t[..., None] * dirs[..., :2]
+
+
+def _grid(centre: np.ndarray, half: float, step: float) -> np.ndarray:
+    """Plan points every ``step`` within ``half`` of ``centre`` both ways, (K, 2)."""
+    k = np.arange(-half, half + step / 2, step)
+    return centre + np.stack(np.meshgrid(k, k), axis=-1).reshape(-1, 2)
+
+
+def _mispredicted(centres: np.ndarray, hits: np.ndarray, heard: np.ndarray, pattern: np.ndarray,
+                  contrast: float, radius: float) -> np.ndarray:
+    """For each candidate centre and beam, whether the beam is mispredicted, (K, B): heard at
+    the top's level though the pattern's weight on the disc times the steel's ``contrast``
+    (linear) is under its weight on the seabed, or the other way round."""
+    out = np.empty((len(centres), len(hits)), bool)
+    for i in range(0, len(centres), 64):
+        c = centres[i:i + 64]
+        on = np.hypot(hits[None, :, :, 0] - c[:, None, None, 0],
+                      hits[None, :, :, 1] - c[:, None, None, 1]) <= radius  # (k, B, S)
+        steel = on @ pattern
+        out[i:i + 64] = (contrast * steel > pattern.sum() - steel) != heard[None, :]
+    return out
+
+
+def _best(centres: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """The mean of the candidate centres, each weighted by ``exp(-(count - fewest))``."""
+    w = np.exp(-(count - count.min()).astype(float))
+    return (w[:, None] * centres).sum(axis=0) / w.sum()

@@ -18,8 +18,8 @@ from ..pings import ping_keys
 from ..seabed import GROUND_BAND
 from ..version import __version__
 from .accept import rejected_record, rejection_reasons
-from .assess import assess_pile
-from .beam import beam_contrast, pile_models, through_beam
+from .assess import PLAN_FLAG, assess_pile, plan_flag
+from .beam import beam_contrast, pile_models, through_beam, top_through_beam
 from .design import Design
 from .elevate import elevated_points, pile_base, pile_thresholds
 from .iterate import iterate
@@ -27,7 +27,7 @@ from .level import top_lines
 from .options import PileOptions
 from .radius import joint_radius, with_radius_sigma
 from .relate import MeasuredPiles, relate_piles
-from .results import PileFit, PileResult, RejectedPile
+from .results import PileFit, PileResult, RejectedPile, plan_sigma
 from .separate import separate_piles
 from .split import segment_piles
 
@@ -154,18 +154,47 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
                             _share(progress, 0.4 + share * (passes - 1), 0.4 + share * passes))
         moves = [float(np.hypot(*(before - [p.x, p.y]).T).min()) if len(before) else 0.0 for p in m.piles]
         settled = max(moves, default=0.0) < BEAM_SETTLED or passes == BEAM_PASSES
-    m = _with_beam_sigma(m, moves, models, seen.half_footprints, opts.min_side)
+    m = _with_beam_sigma(m, moves, models, seen.half_footprints, opts.min_side, opts.max_sigma)
+    m, tops = _tops_through_beam(m, pts, keys, angle, beam, opts, contrast_db)
     note = (f"seen through {opts.beam_width_deg:g}° beams ({opts.detection} detection, the steel's echo "
             f"{contrast_db:.0f} dB over the seabed's; {passes} passes, the last moving a centre by at most "
             f"{1000 * max(moves, default=0.0):.1f} mm, kept in its 1-sigma, as half a footprint for a pile "
             f"with too few wall soundings): {seen.moved:,} soundings moved back along their beams, "
-            f"{seen.left_out:,} left out as the steel's echo heard beside the piles")
+            f"{seen.left_out:,} left out as the steel's echo heard beside the piles"
+            + (f"; {tops} with too few wall soundings centred on their tops as the beams heard them"
+               if tops else ""))
     return replace(m, warnings=(*m.warnings, note))
 
 
+def _tops_through_beam(m: MeasuredPiles, pts: np.ndarray, keys: np.ndarray, angle: np.ndarray, beam: Beam,
+                       opts: PileOptions, contrast_db: float) -> tuple[MeasuredPiles, int]:
+    """Each pile whose wall has too few soundings to fit centred on its top as the beams
+    heard it, wings and all (:func:`~mbinspect.piles.beam.top_through_beam`, from the
+    soundings as read), with that fit's covariance; the others as they are."""
+    piles, covs = [], dict(m.covs)
+    for p, model in zip(m.piles, pile_models(m.piles, m.cylinders, pts), strict=True):
+        fit = None if p.n_side >= opts.min_side else top_through_beam(
+            pts, keys, angle, model, beam, reach=opts.neighbourhood, contrast_db=contrast_db)
+        if fit is not None:
+            covs[p.id] = fit[1]
+            p = _flag_sigma(replace(p, x=float(fit[0][0]), y=float(fit[0][1]), sigma_xy=plan_sigma(fit[1])),
+                            opts.max_sigma)
+        piles.append(p)
+    tops = sum(a is not b for a, b in zip(piles, m.piles, strict=True))
+    return replace(m, piles=tuple(piles), covs=covs), tops
+
+
+def _flag_sigma(p: PileFit, max_sigma: float) -> PileFit:
+    """``p`` with its plan-uncertainty flag (:func:`~mbinspect.piles.assess.assess_pile`)
+    said again for its present 1-sigma."""
+    flags = [f for f in p.flags if not f.startswith(PLAN_FLAG)]
+    if not p.sigma_xy <= max_sigma:
+        flags.append(plan_flag(p.sigma_xy, max_sigma))
+    return replace(p, flags=tuple(flags))
+
+
 def _with_beam_sigma(m: MeasuredPiles, moves: list[float], models: list[Any],
-                     half_footprints: tuple[float, ...],
-                     min_side: int) -> MeasuredPiles:
+                     half_footprints: tuple[float, ...], min_side: int, max_sigma: float) -> MeasuredPiles:
     """Each pile's plan covariance widened by what the beam's bias leaves in its centre: the
     last pass's move, and for a pile whose wall has too few soundings to fit (its centre from
     the top's edge, which the beam blurs however well the passes settle) at least half the
@@ -174,7 +203,7 @@ def _with_beam_sigma(m: MeasuredPiles, moves: list[float], models: list[Any],
     left = [max(move, half_footprints[int(np.argmin(np.hypot(*(tops - [p.x, p.y]).T)))])
             if p.n_side < min_side else move for p, move in zip(m.piles, moves, strict=True)]
     covs = {p.id: m.covs[p.id] + s**2 * np.eye(2) for p, s in zip(m.piles, left, strict=True)}
-    piles = tuple(replace(p, sigma_xy=math.sqrt(p.sigma_xy**2 + s**2))
+    piles = tuple(_flag_sigma(replace(p, sigma_xy=math.sqrt(p.sigma_xy**2 + s**2)), max_sigma)
                   for p, s in zip(m.piles, left, strict=True))
     return replace(m, piles=piles, covs=covs)
 
