@@ -70,12 +70,14 @@ def contrast_db(intensity: np.ndarray | None, is_reef: np.ndarray, height: np.nd
 
 
 def sight(points: np.ndarray, ping: np.ndarray | None, beam_angle: np.ndarray | None, beam: Beam,
-          contrast: float) -> Sight:
-    """Each sounding's beam origin and swath axis from its ping's soundings; where the pings are
-    unknown, a transducer at the water surface above the sounding (elevation 0) and no axis."""
+          contrast: float, seabed: np.ndarray | None = None) -> Sight:
+    """Each sounding's beam origin and swath axis from its ping's soundings (those of the
+    ``seabed`` where given: a reef under the nadir beams would lift the transducer by its
+    height); where the pings are unknown, a transducer at the water surface above the
+    sounding (elevation 0) and no axis."""
     pts = np.asarray(points, np.float64)
     if ping is not None and beam_angle is not None:
-        origins, axes, _ = ping_geometry(pts, ping, beam_angle)
+        origins, axes, _ = ping_geometry(pts, ping, beam_angle, fit=seabed)
     else:
         origins, axes = np.full_like(pts, np.nan), np.full_like(pts, np.nan)
     unknown = ~np.isfinite(origins[:, 0])

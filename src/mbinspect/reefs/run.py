@@ -253,7 +253,7 @@ def _sight(cloud: PointCloud, points: np.ndarray, rows: np.ndarray, is_reef: np.
     contrast = opts.beam_contrast_db
     if contrast is None:
         contrast = contrast_db(intensity, is_reef, height)
-    return sight(points, ping, angle, beam, contrast)
+    return sight(points, ping, angle, beam, contrast, seabed=~is_reef)
 
 
 def _score(reefs: list[Reef], reference: Any, opts: ReefOptions, warnings: list[str]
