@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -147,7 +148,7 @@ def ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: Rast
 
 
 def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: Seabed, *,
-                 reef_id: int = 0, is_reef: np.ndarray | None = None) -> Reef:
+                 reef_id: int = 0, is_reef: np.ndarray | None = None, shape: bool = True) -> Reef:
     """Measure one reef from its raster cells and the soundings behind them.
 
     Centre: area centroid of the cells. Top: the median of the reef soundings within
@@ -174,6 +175,9 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
     reef_id : int
     is_reef : ndarray of bool, optional
         The reef soundings (the top uses these only).
+    shape : bool
+        False leaves out the rectangle, the volumes and the outline (NaN, empty): what an
+        object too small to be a reef is listed without.
 
     Examples
     --------
@@ -210,13 +214,16 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
         def local(qx: np.ndarray, qy: np.ndarray, _r=ring) -> np.ndarray:
             return 0.5 * (_r(qx, qy) + seabed.elevation(qx, qy))
     z_sea = float((local or seabed.elevation)(np.array([x]), np.array([y]))[0])
+    height = z_top - z_sea
+    if not shape:
+        return Reef(reef_id, x, y, z_sea, z_top, height, float(len(cells) * c * c), math.nan, math.nan,
+                    math.nan, math.nan, math.nan, int(len(pidx)))
     hull = convex_hull(row_ends(np.column_stack([cx, cy])))  # the outer cells decide the rectangle
     corners = np.concatenate([hull + [dx, dy] for dx in (-c / 2, c / 2) for dy in (-c / 2, c / 2)])
     rect = min_area_rectangle(corners)
     sea = local(cx, cy) if local is not None else seabed.elevation(cx, cy)
     zc = np.where(near >= 0, points[np.maximum(near, 0), 2], sea)
     volume = float(np.sum(np.maximum(zc - sea, 0.0)) * c * c)
-    height = z_top - z_sea
     j0, j1, i0, i1 = cj.min(), cj.max() + 1, ci.min(), ci.max() + 1
     mask = np.zeros((j1 - j0, i1 - i0), dtype=bool)  # its own cells, not the raster's
     mask[cj - j0, ci - i0] = True

@@ -159,7 +159,8 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
     noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
     small_note = f"smaller than `min_area` {options.min_area:g} m²"
-    others = [other_object(with_least_depth(measure_reef(points, p, raster, seabed, is_reef=is_reef), m,
+    others = [other_object(with_least_depth(measure_reef(points, p, raster, seabed, is_reef=is_reef,
+                                                         shape=False), m,
                                             context, clear, noise), small_note)
               for p, m in zip(small, _members(points, is_reef, raster, small), strict=True)]
     kept, kept_members = [], []
