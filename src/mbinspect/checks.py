@@ -271,10 +271,11 @@ def beyond_the_earth(points: np.ndarray) -> int | None:
     pts = np.asarray(points, np.float64)
     if not len(pts):
         return None
-    # one column at a time: a reduction along the long axis of an (N, 3) array is slow
-    plan = max(max(abs(float(pts[:, k].min())), abs(float(pts[:, k].max()))) for k in (0, 1))
-    height = max(abs(float(pts[:, 2].min())), abs(float(pts[:, 2].max())))
-    if plan <= MAX_PLAN and height <= MAX_HEIGHT:
+    # the whole array in one pass bounds the plan (MAX_PLAN is the larger bound), then the
+    # heights' column alone: a reduction along the long axis of an (N, 3) array is slow
+    every = max(abs(float(pts.min())), abs(float(pts.max())))
+    height = max(abs(float(pts[:, 2].min())), abs(float(pts[:, 2].max()))) if every > MAX_HEIGHT else every
+    if every <= MAX_PLAN and height <= MAX_HEIGHT:
         return None
     bad = (np.abs(pts[:, :2]) > MAX_PLAN).any(axis=1) | (np.abs(pts[:, 2]) > MAX_HEIGHT)
     return int(np.flatnonzero(bad)[0])
