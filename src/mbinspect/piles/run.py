@@ -161,8 +161,8 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
             f"{1000 * max(moves, default=0.0):.1f} mm, kept in its 1-sigma, as half a footprint for a pile "
             f"with too few wall soundings): {seen.moved:,} soundings moved back along their beams, "
             f"{seen.left_out:,} left out as the steel's echo heard beside the piles"
-            + (f"; {tops} with too few wall soundings centred on their tops as the beams heard them"
-               if tops else ""))
+            + (f"; {tops} pile{'s' * (tops != 1)} with too few wall soundings centred on the top as "
+               "the beams heard it" if tops else ""))
     return replace(m, warnings=(*m.warnings, note))
 
 
