@@ -324,3 +324,19 @@ def test_ctrl_c_stops_the_cluster_and_leaves_nothing(reef_lines, tmp_path) -> No
              (Path(f"/proc/{k}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z")]
     assert alive == []
     assert list(work.iterdir()) == []  # no output, no staging folder, no tile parts
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(sys.platform != "linux", reason="signal masks and a fork server as on Linux")
+def test_a_local_cluster_leaves_ctrl_c_to_the_watcher() -> None:
+    # Python's multiprocessing unblocks SIGINT in the thread that starts its resource tracker:
+    # a Ctrl-C then reached the main thread, past the watcher that silences the libraries
+    script = ("import signal\n"
+              "from mbinspect import interrupt\n"
+              "interrupt.install()\n"
+              "from mbinspect.survey.cluster import dask_client\n"
+              "with dask_client(workers=2):\n"
+              "    print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, set()))\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "True"

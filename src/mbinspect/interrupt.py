@@ -17,9 +17,12 @@ import _thread
 import logging
 import os
 import signal
+import sys
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
-__all__ = ["install", "exit_status", "GRACE"]
+__all__ = ["install", "exit_status", "signals_kept_blocked", "GRACE"]
 
 #: Seconds the main thread gets to unwind by itself before the process is ended.
 GRACE = 0.6
@@ -45,9 +48,7 @@ def install() -> None:
 def _watch(sigs: set[signal.Signals]) -> None:
     sig = signal.sigwait(sigs)
     _received.append(int(sig))
-    # from here only our one line speaks: a library logging the workers it was starting as
-    # they were stopped (Dask's nanny: "Failed to start process" and a traceback) is quiet
-    logging.disable(logging.CRITICAL)
+    _quiet()
     main = threading.main_thread()
     _thread.interrupt_main()
     main.join(GRACE)
@@ -63,3 +64,26 @@ def _watch(sigs: set[signal.Signals]) -> None:
             child.kill()
     finally:
         os._exit(exit_status())
+
+
+def _quiet() -> None:
+    """From here only our one line speaks: a library logging the workers it was starting as
+    they were stopped (Dask's nanny: "Failed to start process"; the client's event loop:
+    "Exception in callback" and a traceback), an exception a thread or a finaliser raises
+    while the work unwinds: logging is off and the exception hooks do nothing."""
+    logging.disable(logging.CRITICAL)
+    sys.unraisablehook = lambda _: None
+    threading.excepthook = lambda _: None
+
+
+@contextmanager
+def signals_kept_blocked() -> Iterator[None]:
+    """The calling thread's signal mask as it was, whatever the block starts: Python's
+    multiprocessing unblocks SIGINT and SIGTERM in the thread that starts its resource
+    tracker (a fork server's first use does), and a Ctrl-C then reached the main thread
+    itself, not the watcher: no one silenced the libraries, and a traceback came out."""
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, set())
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 import os
 import re
-import signal
 import threading
 import time
 import warnings
@@ -17,6 +16,7 @@ from typing import Any
 
 from ..errors import InputWarning, MBInspectError, ParameterError
 from ..grid import machine_memory
+from ..interrupt import signals_kept_blocked
 
 __all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text", "scheduler_address"]
 
@@ -87,13 +87,15 @@ def dask_client(*, scheduler: str | None = None, workers: int | None = None,
     memory = memory_per_worker or machine_memory() * 0.8 / n
     with _workers_ignore_sigint():
         try:
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   memory_limit=int(memory), dashboard_address=None,
-                                   silence_logs=logging.ERROR, host="127.0.0.1")
+            with signals_kept_blocked():
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       memory_limit=int(memory), dashboard_address=None,
+                                       silence_logs=logging.ERROR, host="127.0.0.1")
         except KeyboardInterrupt:
             _abandon_cluster()
             raise
-        client = Client(cluster)
+        with signals_kept_blocked():
+            client = Client(cluster)
         try:
             yield client
         except KeyboardInterrupt:
@@ -119,21 +121,21 @@ def _abandon_cluster() -> None:
 
 @contextmanager
 def _workers_ignore_sigint() -> Iterator[None]:
-    """Local workers born ignoring SIGINT: forked by a fork server started with SIGINT ignored.
+    """Local workers born ignoring SIGINT: forked by a fork server that ignores it.
 
     Ctrl-C reaches every process of the terminal's group: the workers took it too, and each
     printed a KeyboardInterrupt traceback (4 of 16 interrupted runs). This process stops
-    them itself (:mod:`mbinspect.interrupt`). Only an ignored signal passes to a new
-    program, so SIGINT is ignored here while the fork server starts (a few milliseconds;
-    a Ctrl-C then is lost, the next one stops the run) and each worker it forks inherits
-    that; a worker set to ignore SIGINT once started would print its traceback if the signal
-    came while it was still importing. The fork server and its workers write nothing to the
-    terminal (their stderr is the null device): a worker still being born when this process
-    ends printed a traceback; a task's error comes back through Dask, and a worker's death
-    is reported by its nanny, here.
+    them itself (:mod:`mbinspect.interrupt`). The fork server starts with SIGINT blocked and
+    imports :mod:`mbinspect.survey.sigint_ignored` first, so it and every worker it forks
+    ignore SIGINT; this process keeps its own handling throughout (ignoring it here while
+    the server started lost a Ctrl-C that came then; a server that took one while importing
+    its preload died, and its nanny's traceback came out).
+    The fork server and its workers write nothing to the terminal (their stderr is the null
+    device): a worker still being born when this process ends printed a traceback; a task's
+    error comes back through Dask, and a worker's death is reported by its nanny, here.
     """
     import multiprocessing
-    from multiprocessing import forkserver
+    from multiprocessing import forkserver, resource_tracker
 
     import dask
 
@@ -143,20 +145,31 @@ def _workers_ignore_sigint() -> Iterator[None]:
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
         from distributed.utils import get_mp_context
 
-        get_mp_context()  # the server's preload (distributed, numpy, ...), set before it starts
+        ctx = get_mp_context()  # the server's preload (distributed, numpy, ...), set before it starts
+        server = getattr(forkserver, "_forkserver", None)
+        preload = [m for m in getattr(server, "_preload_modules", None) or [] if m != _QUIET]
+        ctx.set_forkserver_preload([_QUIET, *preload])
         if threading.current_thread() is threading.main_thread():
-            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
             stderr = os.dup(2)
             devnull = os.open(os.devnull, os.O_WRONLY)
             try:
                 os.dup2(devnull, 2)
-                forkserver.ensure_running()
+                # the resource tracker unblocks SIGINT and SIGTERM in the thread that starts it:
+                # started first, on its own, the fork server then starts with them still
+                # blocked (this thread's mask), and cannot die of a Ctrl-C before its preload
+                with signals_kept_blocked():
+                    resource_tracker.ensure_running()
+                with signals_kept_blocked():
+                    forkserver.ensure_running()
             finally:
                 os.dup2(stderr, 2)
                 os.close(stderr)
                 os.close(devnull)
-                signal.signal(signal.SIGINT, previous)
         yield
+
+
+#: The module the workers' fork server imports first (:mod:`mbinspect.survey.sigint_ignored`).
+_QUIET = "mbinspect.survey.sigint_ignored"
 
 
 def map_tasks(fn: Callable[..., Any], items: Sequence[Any], *, client: Any = None,
