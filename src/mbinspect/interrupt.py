@@ -82,6 +82,9 @@ def signals_kept_blocked() -> Iterator[None]:
     multiprocessing unblocks SIGINT and SIGTERM in the thread that starts its resource
     tracker (a fork server's first use does), and a Ctrl-C then reached the main thread
     itself, not the watcher: no one silenced the libraries, and a traceback came out."""
+    if not hasattr(signal, "pthread_sigmask"):  # Windows: no masks to keep
+        yield
+        return
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, set())
     try:
         yield

@@ -112,10 +112,7 @@ def through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, m
     moved = 0
     halves = []
     for model in models:
-        plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
-        local = np.flatnonzero(plan < reach)
-        origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local],
-                                             fit=_on_seabed(pts[local, 2], model))
+        local, origins, axes, known = _placed(pts, ping, beam_angle, model, reach)
         sel = _near(pts[local], origins, known, model, beam)
         halves.append(0.0)
         if not len(sel):
@@ -142,6 +139,16 @@ def _near(pts: np.ndarray, origins: np.ndarray, known: np.ndarray, model: PileMo
     plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
     reach = model.radius + rng * beam.spread() + 0.5
     return np.flatnonzero(known & (plan < reach) & (pts[:, 2] > model.seabed_z - 1.0))
+
+
+def _placed(pts: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, model: PileModel, reach: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The soundings within ``reach`` of a pile (rows of ``pts``), each one's transducer and
+    swath axis from its ping's seabed soundings there (:func:`_on_seabed`), and which have one."""
+    local = np.flatnonzero(np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1]) < reach)
+    origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local],
+                                         fit=_on_seabed(pts[local, 2], model))
+    return local, origins, axes, known
 
 
 def _on_seabed(z: np.ndarray, model: PileModel) -> np.ndarray:
@@ -265,10 +272,7 @@ def top_through_beam(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarra
         None where too few beams near the top are placed, or too few hear its level.
     """
     pts = np.asarray(points, np.float64)
-    plan = np.hypot(pts[:, 0] - model.top[0], pts[:, 1] - model.top[1])
-    local = np.flatnonzero(plan < reach)
-    origins, axes, known = ping_geometry(pts[local], ping[local], beam_angle[local],
-                                         fit=_on_seabed(pts[local, 2], model))
+    local, origins, axes, known = _placed(pts, ping, beam_angle, model, reach)
     rng = np.linalg.norm(pts[local] - np.where(known[:, None], origins, pts[local]), axis=1)
     height = float(model.top[2]) - model.seabed_z
     z = pts[local, 2]
