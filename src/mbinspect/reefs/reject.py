@@ -38,7 +38,7 @@ from .shape import (
 )
 
 __all__ = ["Candidate", "Context", "Rule", "RULES", "why_not_a_reef", "other_object",
-           "LOWEST_SHARE", "DESIGN_WITNESS_SCALE", "SHAPE_SOUNDINGS_ACROSS"]
+           "LOWEST_SHARE", "DESIGN_WITNESS_SCALE", "SHAPE_SOUNDINGS_ACROSS", "BLOOM_MISFIT"]
 
 #: Least share of its design's height a reef fitted by that design shows above the seabed
 #: (a cross of 1.2 m sunk 0.6 m still shows half).
@@ -54,12 +54,23 @@ DESIGN_WITNESS_SCALE = 0.15
 SHAPE_SOUNDINGS_ACROSS = 6
 
 
+#: Told the beam, a dome is also looked for in the footprint as heard (before its bloom was
+#: taken off), its fit allowed this many times ``dome_misfit``: each sounding of the bloom
+#: mixes the echoes of a cone over the curved surface and stands off it by more than the
+#: noise (rocks at 25 m through 1° cones: misfit 0.08-0.18 of the height as heard,
+#: 0.05-0.16 once eroded; the flat tops of cubes, hollow squares and crosses drop under
+#: 0.15 of their height or misfit by over 0.16 either way).
+BLOOM_MISFIT = 1.25
+
+
 @dataclass(frozen=True)
 class Candidate:
-    """A measured footprint: the reef as measured and its flat raster cells."""
+    """A measured footprint: the reef as measured and its flat raster cells; told the beam,
+    also the cells as heard (``heard``: before its bloom was taken off)."""
 
     reef: Reef
     cells: np.ndarray
+    heard: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -150,7 +161,11 @@ def rock_shape(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
     at its centre (its surface by plan area, however many soundings its walls caught from
     oblique beams), each less its line's level (:func:`~mbinspect.reefs.shape.line_levels`).
     Not judged where too few soundings lie across it to show its top's edges
-    (:data:`SHAPE_SOUNDINGS_ACROSS`).
+    (:data:`SHAPE_SOUNDINGS_ACROSS`). Told the beam (``c.heard``), the footprint as heard is
+    judged too: a dome there within :data:`BLOOM_MISFIT` times ``dome_misfit`` is a rock,
+    and so is a rounded top there when taking the bloom off left too little to judge (the
+    reach of a straight edge's bloom takes a dome's flanks away, which have no edge to
+    bloom from).
     """
     reef = c.reef
     # a design that fits at its size (with few edge soundings astray) is a stronger
@@ -159,10 +174,25 @@ def rock_shape(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
         return None
     if not (options.rounded_spread or options.dome_misfit) or ctx.raster is None:
         return None
+    shape = _surface_shape(c.cells, reef, ctx)
+    why = _rock_reason(shape, options, options.dome_misfit, rounded=True) if shape else None
+    if why or c.heard is None:
+        return why
+    heard = _surface_shape(c.heard, reef, ctx)
+    why = _rock_reason(heard, options, BLOOM_MISFIT * options.dome_misfit, rounded=shape is None) \
+        if heard else None
+    return f"as heard through the beam, {why}" if why else None
+
+
+def _surface_shape(cells: np.ndarray, reef: Reef, ctx: Context
+                   ) -> tuple[float, float, float, float, float] | None:
+    """The dome fit and the rounding of the footprint ``cells``' surface (misfit, drop,
+    spread, plateau, width across), or None where too few soundings lie across it."""
+    assert ctx.raster is not None
     points = ctx.points
-    idx = cell_soundings(c.cells, ctx.raster)
+    idx = cell_soundings(cells, ctx.raster)
     own = np.unique(idx)
-    across = thickness(c.cells, ctx.raster)
+    across = thickness(cells, ctx.raster)
     if len(own) < 10 or sounding_spacing(points[own]) > across / SHAPE_SOUNDINGS_ACROSS:
         return None
     z = points[idx, 2] - reef.z_seabed
@@ -170,17 +200,29 @@ def rock_shape(c: Candidate, ctx: Context, options: ReefOptions) -> str | None:
         z = z - line_levels(points[idx], ctx.line[idx], ctx.ground)
     misfit, drop = dome_shape(points[idx, :2], z, across)
     spread, plateau = rounded_shape(z)
-    if 0 < options.dome_misfit and misfit <= options.dome_misfit and drop >= options.dome_drop \
+    return misfit, drop, spread, plateau, across
+
+
+def _rock_reason(shape: tuple[float, float, float, float, float], options: ReefOptions,
+                 dome_misfit: float, *, rounded: bool) -> str | None:
+    """Why a surface of this shape (:func:`_surface_shape`) is a rock's, or None."""
+    misfit, drop, spread, plateau, across = shape
+    if 0 < options.dome_misfit and misfit <= dome_misfit and drop >= options.dome_drop \
             and plateau <= DOME_PLATEAU:
+        allowed = f"`dome_misfit` {options.dome_misfit:g}{_times(dome_misfit, options.dome_misfit)}"
         return (f"a dome: its upper soundings fit a curved surface within {misfit:.0%} of its height "
-                f"(`dome_misfit` {options.dome_misfit:g}) that drops {drop:.0%} of its height across half "
+                f"({allowed}) that drops {drop:.0%} of its height across half "
                 f"its {across:.1f} m width (`dome_drop` {options.dome_drop:g}), with {plateau:.0%} of it "
                 "near its top: a rock, not a reef")
-    if spread >= options.rounded_spread > 0 and plateau <= options.rounded_plateau:
+    if rounded and spread >= options.rounded_spread > 0 and plateau <= options.rounded_plateau:
         return (f"rounded: its highest soundings spread over {spread:.0%} of its height (`rounded_spread` "
                 f"{options.rounded_spread:g}) and {plateau:.0%} lie near its top (`rounded_plateau` "
                 f"{options.rounded_plateau:g}): a rock, not a reef's flat top")
     return None
+
+
+def _times(allowed: float, option: float) -> str:
+    return f" × {allowed / option:g} as heard" if allowed != option else ""
 
 
 #: The rules, in the order their reasons are given.

@@ -137,7 +137,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     members : list of ndarray of int
         Each reef's soundings: the reef points (rows of ``points``) in its footprint.
     """
-    parts, small, raster, used_area = _footprints(points, is_reef, height, options, view)
+    parts, small, raster, used_area, heard = _footprints(points, is_reef, height, options, view)
     reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef) for p in parts]
     designs = options.designs
     if designs:
@@ -178,10 +178,10 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         misfit = design_misfit(Candidate(r, p), context, options)
         if misfit:  # no design given fits it: its free-form measures, judged by its shape
             r = rest(f) if designs else f  # every design, every way it may lie
-            why = why_not_a_reef(Candidate(f, p), context, options)
+            why = why_not_a_reef(Candidate(f, p, _heard(heard, p)), context, options)
             why = f"{misfit}; as a free-form object: {why}" if why else None
         else:
-            why = why_not_a_reef(Candidate(r, p), context, options)
+            why = why_not_a_reef(Candidate(r, p, _heard(heard, p)), context, options)
             if why and designs and r.design:
                 r = rest(f)
         if (misfit or why) and overturned_unit(r, designs):  # on its side or upside down
@@ -194,17 +194,32 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     return kept, others, used_area, kept_members
 
 
+#: Each unbloomed part's cells as heard, by the part's ``id`` (with the part, to check it is the same).
+Heard = dict[int, tuple[np.ndarray, np.ndarray]]
+
+
 def _footprints(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, options: ReefOptions,
-                view: Sight | None) -> tuple[list[np.ndarray], list[np.ndarray], Raster, float]:
+                view: Sight | None
+                ) -> tuple[list[np.ndarray], list[np.ndarray], Raster, float, Heard]:
     """The footprints split into single reefs (:func:`split_reefs`), each with the beam's
-    bloom taken off when told the beam (:func:`~mbinspect.reefs.beam.unbloom_parts`)."""
+    bloom taken off when told the beam (:func:`~mbinspect.reefs.beam.unbloom_parts`), and
+    each such part's cells as heard, by the part's ``id`` (a part joined by design has none)."""
     parts, small, raster, used_area = split_reefs(points, is_reef, cell=options.cell,
                                                   reef_area=options.reef_area, height=height,
                                                   min_area=options.min_area, seed=options.seed)
+    heard: Heard = {}
     if view is not None:
+        bloomed = parts
         parts, raster = unbloom_parts(points, parts, raster, is_reef, height, view,
                                       min_height=options.min_height)
-    return parts, small, raster, used_area
+        heard = {id(p): (p, b) for p, b in zip(parts, bloomed, strict=True) if len(p) < len(b)}
+    return parts, small, raster, used_area, heard
+
+
+def _heard(heard: Heard, part: np.ndarray) -> np.ndarray | None:
+    """The cells as heard of ``part`` (:func:`_footprints`), or None."""
+    kept, cells = heard.get(id(part), (None, None))
+    return cells if kept is part else None
 
 
 def _members(points: np.ndarray, is_reef: np.ndarray, raster: Raster, parts: list[np.ndarray]
