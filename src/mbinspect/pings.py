@@ -3,6 +3,8 @@ ping numbers, estimated from the soundings' order."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import InputError
@@ -185,5 +187,14 @@ def ping_keys(fields: dict[str, np.ndarray]) -> np.ndarray:
     cols = [np.asarray(fields[k], np.int64) for k in ("file", "line", "ping") if k in fields]
     if len(cols) == 1:
         return cols[0]
-    _, key = np.unique(np.column_stack(cols), axis=0, return_inverse=True)
+    # the columns as one number in mixed radix (the rows' order kept): a unique of integers,
+    # not of rows (3.5 s for 2.2 M soundings by rows)
+    spans = [int(c.max()) - int(c.min()) + 1 if len(c) else 1 for c in cols]
+    if math.prod(spans) < 2**62:
+        combined = np.zeros(len(cols[0]), np.int64)
+        for c, span in zip(cols, spans, strict=True):
+            combined = combined * span + (c - (c.min() if len(c) else 0))
+        _, key = np.unique(combined, return_inverse=True)
+    else:
+        _, key = np.unique(np.column_stack(cols), axis=0, return_inverse=True)
     return key.ravel()

@@ -7,8 +7,8 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
+from .lsq import soft_l1_least_squares
 from .models import Cylinder
 from .robust import RobustResult, msac
 
@@ -95,7 +95,9 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         Elevation at which the axis point is parameterised (e.g. the top); default the
         mean z of the points. The returned ``point`` lies on the axis at ``z_ref``.
     loss, f_scale : str, float
-        Robust loss of :func:`scipy.optimize.least_squares` and its scale (m).
+        Robust loss and its scale (m): ``"soft_l1"`` or ``"linear"`` (none), as
+        :func:`scipy.optimize.least_squares` names them
+        (:func:`~mbinspect.fit.lsq.soft_l1_least_squares` minimises them).
     groups : ndarray of int, optional
         Cluster labels (ping numbers). Errors common to a ping are not independent: the
         fit is then refined as a random-effects (GLS) fit, which stops a ping with many
@@ -140,34 +142,29 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
     rel = pts - shift  # local coordinates keep the normal equations well conditioned
     w = 1.0 if sigma is None else float(np.median(sigma)) / np.asarray(sigma, np.float64)
 
-    def resid(q: np.ndarray) -> np.ndarray:
-        c, a, r = unpack(q)
-        d = rel - c
-        s = d @ a
-        return w * (np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)) - r)
-
-    def jac(q: np.ndarray) -> np.ndarray:
-        return _jacobian(rel, q, unpack, w, plumb=plumb, fixed_r=fixed_r)
+    def fun(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return _residuals(rel, q, unpack, w, plumb=plumb, fixed_r=fixed_r)
 
     x0 = [p0[0] - centre[0], p0[1] - centre[1]] + ([] if plumb else [a0[0] / a0[2], a0[1] / a0[2]])
     if not fixed_r:
         x0.append(start.radius)
-    sol = least_squares(resid, np.array(x0), jac=jac, loss=loss, f_scale=f_scale, x_scale=0.01)
+    if loss not in ("soft_l1", "linear"):
+        raise ValueError(f"loss {loss!r}: 'soft_l1' or 'linear' expected")
+    scale = f_scale if loss == "soft_l1" else None
+    sol = soft_l1_least_squares(fun, np.array(x0), f_scale=scale, x_scale=0.01)
     shrink = _random_effects(sol.fun, groups) if groups is not None and random_effects else None
     if shrink is not None:
         inv, c_g = shrink
         n_g = np.bincount(inv)
 
-        def resid_gls(q: np.ndarray) -> np.ndarray:
-            r = resid(q)
-            return r - c_g[inv] * (np.bincount(inv, weights=r) / n_g)[inv]
+        def fun_gls(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            r, j = fun(q)
+            means = np.stack([np.bincount(inv, weights=col) for col in np.column_stack([r, j]).T],
+                             axis=1) / n_g[:, None]
+            both = np.column_stack([r, j]) - c_g[inv, None] * means[inv]
+            return both[:, 0], both[:, 1:]
 
-        def jac_gls(q: np.ndarray) -> np.ndarray:
-            j = jac(q)
-            means = np.stack([np.bincount(inv, weights=col) for col in j.T], axis=1) / n_g[:, None]
-            return j - c_g[inv, None] * means[inv]
-
-        sol = least_squares(resid_gls, sol.x, jac=jac_gls, loss=loss, f_scale=f_scale, x_scale=0.01)
+        sol = soft_l1_least_squares(fun_gls, sol.x, f_scale=scale, x_scale=0.01)
     c, a, r = unpack(sol.x)
     cov = _sandwich(sol.jac, sol.fun, groups)
     if plumb:  # the layout of a free axis, its slopes held
@@ -178,20 +175,23 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
     return Cylinder(c + shift, a, r), cov
 
 
-def _jacobian(rel: np.ndarray, q: np.ndarray, unpack: Any, w: Any, *, plumb: bool, fixed_r: bool
-              ) -> np.ndarray:
-    """The point-to-cylinder distances' derivatives with respect to (x, y[, ax, ay][, r])."""
-    c, a, _ = unpack(q)
+def _residuals(rel: np.ndarray, q: np.ndarray, unpack: Any, w: Any, *, plumb: bool, fixed_r: bool
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted point-to-cylinder distances less the radius, and their derivatives with
+    respect to (x, y[, ax, ay][, r])."""
+    c, a, r = unpack(q)
     d = rel - c
     s = d @ a
-    rho = np.maximum(np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0)), 1e-12)
+    dist = np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0))
+    rho = np.maximum(dist, 1e-12)
     cols = [(-d[:, 0] + s * a[0]) / rho, (-d[:, 1] + s * a[1]) / rho]
     if not plumb:
         norm = math.sqrt(q[2] ** 2 + q[3] ** 2 + 1.0)
         cols += [-s * (d[:, 0] - s * a[0]) / (norm * rho), -s * (d[:, 1] - s * a[1]) / (norm * rho)]
     if not fixed_r:
         cols.append(np.full(len(d), -1.0))
-    return np.column_stack(cols) * (np.ones(len(d)) * w)[:, None]
+    weight = np.ones(len(d)) * w
+    return weight * (dist - r), np.column_stack(cols) * weight[:, None]
 
 
 def _random_effects(res: np.ndarray, groups: np.ndarray, discount: float = 0.25

@@ -236,12 +236,18 @@ def pile_thresholds(cloud_int: np.ndarray | None, points: np.ndarray, candidates
     cloud_int = np.asarray(cloud_int, float)
     values = cloud_int[candidates].copy()
     ground = np.flatnonzero(near_seabed)
+    # only the seabed within reach of a candidate: the tree over a whole survey's seabed
+    # cost more than every ring it answers
+    reach = RING_RADII * radius + 2.0
+    lo, hi = points[candidates, :2].min(axis=0) - reach, points[candidates, :2].max(axis=0) + reach
+    gxy = points[ground, :2]
+    ground = ground[np.all((gxy >= lo) & (gxy <= hi), axis=1)]
     tree = cKDTree(points[ground, :2]) if len(ground) else None
     for c in ids:
         mine = labels == c
         own = candidates[mine]
-        near = ground[tree.query_ball_point(points[own, :2].mean(axis=0), RING_RADII * radius + 2.0)] \
-            if tree is not None else np.zeros(0, np.int64)
+        near = ground[np.sort(np.asarray(tree.query_ball_point(points[own, :2].mean(axis=0), reach),
+                                         np.int64))] if tree is not None else np.zeros(0, np.int64)
         rows = np.r_[own, near]
         is_own = np.arange(len(rows)) < len(own)
         inten = cloud_int[rows]

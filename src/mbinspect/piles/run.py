@@ -151,7 +151,7 @@ def _through_beam(m: MeasuredPiles, cloud: PointCloud, pts: np.ndarray, notes: l
         before = np.array([[p.x, p.y] for p in m.piles])
         share = (1.0 - 0.4) / BEAM_PASSES
         m = _measure_points(cloud.subset(seen.keep), seen.points[seen.keep], notes, opts,
-                            _share(progress, 0.4 + share * (passes - 1), 0.4 + share * passes))
+                            _share(progress, 0.4 + share * (passes - 1), 0.4 + share * passes), checked=True)
         moves = [float(np.hypot(*(before - [p.x, p.y]).T).min()) if len(before) else 0.0 for p in m.piles]
         settled = max(moves, default=0.0) < BEAM_SETTLED or passes == BEAM_PASSES
     m = _with_beam_sigma(m, moves, models, seen.half_footprints, opts.min_side, opts.max_sigma)
@@ -209,9 +209,11 @@ def _with_beam_sigma(m: MeasuredPiles, moves: list[float], models: list[Any],
 
 
 def _measure_points(cloud: PointCloud, pts: np.ndarray, notes: list[str], opts: PileOptions,
-                    progress: Callable[[float], None] | None) -> MeasuredPiles:
-    """:func:`measure_piles` on the points given (``cloud`` holds their fields)."""
-    spacing = sounding_spacing(pts, seed=opts.seed)
+                    progress: Callable[[float], None] | None, *, checked: bool = False) -> MeasuredPiles:
+    """:func:`measure_piles` on the points given (``cloud`` holds their fields); their
+    spacing checked unless ``checked`` (the passes through the beam measure the same
+    soundings, a few left out)."""
+    spacing = 0.0 if checked else sounding_spacing(pts, seed=opts.seed)
     if spacing > opts.radius:
         # no pile of this radius can hold enough soundings; the seabed grids would also
         # grow with the extent of so sparse a survey rather than with its soundings
