@@ -158,10 +158,9 @@ def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = 
         n_g = np.bincount(inv)
 
         def fun_gls(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            r, j = fun(q)
-            means = np.stack([np.bincount(inv, weights=col) for col in np.column_stack([r, j]).T],
-                             axis=1) / n_g[:, None]
-            both = np.column_stack([r, j]) - c_g[inv, None] * means[inv]
+            both = np.column_stack(fun(q))
+            means = np.stack([np.bincount(inv, weights=col) for col in both.T], axis=1) / n_g[:, None]
+            both -= c_g[inv, None] * means[inv]
             return both[:, 0], both[:, 1:]
 
         sol = soft_l1_least_squares(fun_gls, sol.x, f_scale=scale, x_scale=0.01)
