@@ -12,13 +12,16 @@ from typing import Any
 
 from .common import Reporter, add_output, subcommand
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("change", "compare two surveys of one reef field or jacket, object by object")
+
 
 def add_parser(sub: Any) -> None:
     """``mbinspect change BEFORE AFTER``."""
     from ..change import ChangeOptions
     from .flags import add_flags
 
-    p = subcommand(sub, "change", "compare two surveys of one reef field or jacket, object by object",
+    p = subcommand(sub, *COMMAND,
              "Register the AFTER survey on the BEFORE survey's seabed away from the objects (vertical "
              "offset, plan shift, small rotation, each with its 1-sigma), match the objects one to one, "
              "and give each its change: a reef's displacement, turn, settlement, height, tilt, how it "

@@ -19,6 +19,10 @@ DEMO_TEXT = ("eight lines: the pile paper's '#' pattern 8 m outside the piles, a
              "both ways, a 400 kHz sonar with real-file noise")
 
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("demo", "simulate the jacket preset and locate its piles")
+
+
 def _cmd_demo(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     from ..outputs import output_dir, write_json
     from ..piles import Design, PileOptions, locate_piles
@@ -50,7 +54,7 @@ def add_parser(sub: Any) -> None:
     """``mbinspect demo``: its flags."""
     from ..piles import PileOptions
 
-    p = subcommand(sub, "demo", "simulate the jacket preset and locate its piles",
+    p = subcommand(sub, *COMMAND,
              "Simulate the jacket preset (about 2.2 M soundings) and run the whole pile pipeline "
              "on it, printing the spacing table with errors against the truth.",
              "example:\n  mbinspect demo --out demo-out")

@@ -11,6 +11,9 @@ from .common import Reporter, subcommand
 from .flags import typed_parser
 from .inputs import add_input, check_input, read_input
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("info", "point count, bounds, fields, density of a cloud")
+
 
 def _cmd_info(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
     from ..checks import positive
@@ -81,7 +84,7 @@ def _noise_lines(noise: Any) -> list[str]:
 
 def add_parser(sub: Any) -> None:
     """``mbinspect info``: its flags."""
-    p = subcommand(sub, "info", "point count, bounds, fields, density of a cloud",
+    p = subcommand(sub, *COMMAND,
              "Summarise a point cloud: count, bounds, z range, fields, density.",
              "example:\n  mbinspect info soundings.laz --json")
     add_input(p, many=True)

@@ -15,6 +15,9 @@ from .common import Reporter, subcommand
 from .flags import add_flags, given_options
 from .inputs import add_input, check_input, file_record, read_input
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("inject", "put known piles and reefs into a real survey (its own noise and shadows)")
+
 
 def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> int:
 
@@ -63,7 +66,7 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
 
 def add_parser(sub: Any) -> None:
     """``mbinspect inject``: its flags."""
-    p = subcommand(sub, "inject", "put known piles and reefs into a real survey (its own noise and shadows)",
+    p = subcommand(sub, *COMMAND,
              "Put piles and reefs of known position into a real survey: every sounding whose beam meets "
              "an object is moved to the hit point and then along its beam by its own seabed residual, so "
              "the objects carry the survey's real noise and cast its real shadows. Uses the ping and "

@@ -32,8 +32,14 @@ examples:
 """
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the ``mbinspect`` command."""
+#: The commands' modules, in the order ``mbinspect --help`` lists them.
+COMMANDS = (info, simulate, inject, piles, reefs, change, plan, demo, soundings)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser of the ``mbinspect`` command: every command's flags, or, given
+    ``command``, only that one's (the others listed by name and help line), so that a run
+    imports what its own command needs and nothing else."""
 
     parser = Parser(
         prog="mbinspect",
@@ -48,9 +54,20 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
 
-    for module in (info, simulate, inject, piles, reefs, change, plan, demo, soundings):
-        module.add_parser(sub)
+    for module in COMMANDS:
+        name, line = module.COMMAND
+        if command in (None, name):
+            module.add_parser(sub)
+        else:
+            sub.add_parser(name, help=line)
     return parser
+
+
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` runs (its first word that is not a flag), if it names one."""
+    words = [a for a in argv if not a.startswith("-")]
+    names = {m.COMMAND[0] for m in COMMANDS}
+    return words[0] if words and words[0] in names else None
 
 
 def _flag_of(args: argparse.Namespace | None, option: str) -> str:
@@ -119,7 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = None
     try:
         with one_line_warnings():
-            parser = build_parser()
+            parser = build_parser(_command_of(argv))
             args = parser.parse_args(argv)
             rep = Reporter(-1 if args.quiet else (1 if args.verbose else 0))
             code: int = args.func(args, rep, argv)

@@ -22,6 +22,9 @@ from .inputs import (
     survey_options,
 )
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("piles", "locate piles and every pile spacing")
+
 
 def _add_pile_options(p: argparse.ArgumentParser) -> None:
     from ..piles import PileOptions
@@ -89,7 +92,7 @@ def add_parser(sub: Any) -> None:
     """``mbinspect piles``: its flags."""
     from ..piles import PileOptions
 
-    p = subcommand(sub, "piles", "locate piles and every pile spacing",
+    p = subcommand(sub, *COMMAND,
              "Locate underwater piles (top centre, radius, tilt) and every pile-to-pile spacing; "
              "compare with a design. Writes piles.json, piles.csv, spacings.csv, levels.csv, figures and "
              "report.html. Exit status 3: results written, but a pile is flagged or a spacing "

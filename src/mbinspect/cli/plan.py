@@ -12,13 +12,16 @@ from typing import Any
 
 from .common import Reporter, add_output, subcommand
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("plan", "plan the survey lines round a pile design before sailing")
+
 
 def add_parser(sub: Any) -> None:
     """``mbinspect plan DESIGN``."""
     from ..plan import PlanOptions
     from .flags import add_flags
 
-    p = subcommand(sub, "plan", "plan the survey lines round a pile design before sailing",
+    p = subcommand(sub, *COMMAND,
              "Generate candidate line layouts round the design (pairs of lines along and across it at "
              "several offsets, the pile paper's '#', lines over the rows of tops, each sailed one way or "
              "both), survey each a few times in the simulator with the sonar's beam and error model at the "

@@ -21,6 +21,9 @@ from .inputs import (
     survey_options,
 )
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("reefs", "extract, separate, measure and score artificial reefs")
+
 
 def _add_reef_options(p: argparse.ArgumentParser) -> None:
     from ..reefs import ReefOptions
@@ -133,7 +136,7 @@ def add_parser(sub: Any) -> None:
     """``mbinspect reefs``: its flags."""
     from ..reefs import ReefOptions
 
-    p = subcommand(sub, "reefs", "extract, separate, measure and score artificial reefs",
+    p = subcommand(sub, *COMMAND,
              "Extract artificial reefs from the seabed, separate them (close and touching ones "
              "too), measure each (centre, height, area, size, orientation, volumes), group them "
              "and, with --reference, score them (TP/FP/FN, correctness, completeness). Writes "

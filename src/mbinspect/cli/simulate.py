@@ -12,6 +12,9 @@ from ..errors import ParameterError
 from .common import Reporter, subcommand
 from .flags import add_flags, typed_parser
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("simulate", "simulate a multibeam survey with exact truth")
+
 
 def _add_simulate_options(p: argparse.ArgumentParser) -> None:
     """One flag per preset and sonar option, generated from their options classes; an option
@@ -172,7 +175,7 @@ def _simulate_lines(args: argparse.Namespace, given: dict[str, Any], out: Path, 
 
 def add_parser(sub: Any) -> None:
     """``mbinspect simulate``: its flags."""
-    p = subcommand(sub, "simulate", "simulate a multibeam survey with exact truth",
+    p = subcommand(sub, *COMMAND,
              "Ray-cast a multibeam survey over a scene whose piles and reefs are known exactly; "
              "write the soundings, truth.json, labels.npz and design.csv (jacket) or reference.csv "
              "(reef-field).",

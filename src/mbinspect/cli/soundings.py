@@ -12,6 +12,9 @@ from typing import Any
 
 from .common import subcommand
 
+#: The command's name and its line in ``mbinspect --help``.
+COMMAND = ("soundings", "write the soundings behind one reef or pile of a result")
+
 
 def _margin(text: str) -> float:
     """A margin: a finite number of metres, zero or more."""
@@ -26,7 +29,7 @@ def _margin(text: str) -> float:
 
 def add_parser(sub: Any) -> None:
     """``mbinspect soundings RESULT.json ID``."""
-    p = subcommand(sub, "soundings", "write the soundings behind one reef or pile of a result",
+    p = subcommand(sub, *COMMAND,
              "Read the files and pings a reef or pile of RESULT.json records under `sources` and write "
              "the soundings of those pings inside the object (a reef's outline; a pile's radius plus "
              "--margin) as CSV: x, y, z, file, ping, and beam and beam_angle when the file has them.",

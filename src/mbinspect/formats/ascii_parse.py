@@ -27,10 +27,12 @@ import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
+from .ascii_columns import Columns
 from .ascii_sniff import (
     DELIMITERS,
     DEPTH_NAMES,
@@ -73,8 +75,9 @@ _COMMENT_LINES = re.compile(rb"(?m)^[ \t]*#[^\n]*\n?")
 
 
 
-def _parse_chunk(args: tuple[str, int, int, AsciiTable]) -> np.ndarray | str:
-    path, start, stop, table = args
+def _chunk_text(path: str, start: int, stop: int, table: AsciiTable) -> bytes:
+    """The bytes ``start:stop`` of ``path``, comment lines, quotes and decimal commas
+    taken out."""
     with open(path, "rb") as fh:
         fh.seek(start)
         data = fh.read(stop - start)
@@ -84,6 +87,16 @@ def _parse_chunk(args: tuple[str, int, int, AsciiTable]) -> np.ndarray | str:
         data = data.replace(b'"', b"")
     if table.decimal == ",":
         data = data.replace(b",", b".")
+    return data
+
+
+def _parse_chunk(args: tuple[str, int, int, AsciiTable]) -> np.ndarray | str:
+    """A chunk's used columns by :func:`numpy.loadtxt`, or its error."""
+    path, start, stop, table = args
+    return _parse_text(_chunk_text(path, start, stop, table), table)
+
+
+def _parse_text(data: bytes, table: AsciiTable) -> np.ndarray | str:
     use = [k for k, n in enumerate(table.names) if n is not None]
     # every column used: let loadtxt check the column count of every line too
     cols = None if len(use) == table.ncols and not table.trailing else use
@@ -101,6 +114,29 @@ def _parse_chunk(args: tuple[str, int, int, AsciiTable]) -> np.ndarray | str:
     if arr.shape[1] != len(use):
         return f"the number of columns changed from {len(use)} to {arr.shape[1]}"
     return arr
+
+
+def _fill_chunk(args: tuple[tuple[str, int, int, AsciiTable], int, Columns]) -> int | str:
+    """A chunk parsed into ``out``'s rows from ``base`` on: by the compiled parser, else
+    by :func:`numpy.loadtxt`; the rows written, or the error."""
+    from .ascii_fast import parse_numbers
+
+    (path, start, stop, table), base, out = args
+    data = _chunk_text(path, start, stop, table)
+    rows = parse_numbers(data, table.delimiter, out.slot, out.xyz, out.fields, base)
+    if rows is not None:
+        return rows
+    arr = _parse_text(data, table)
+    if isinstance(arr, str):
+        return arr
+    out.put(arr, base)
+    return len(arr)
+
+
+def _fast(table: AsciiTable) -> bool:
+    """Whether the chunks of ``table`` go to the compiled parser first: no text column
+    to convert, no empty last field."""
+    return not table.trailing and not any(n in TEXT_NAMES for n in table.names if n is not None)
 
 
 @contextmanager
@@ -194,12 +230,28 @@ def _worker_init() -> None:
 
 
 @contextmanager
-def _parsed(chunks: list[tuple[str, int, int, AsciiTable]]) -> Iterator[Iterator[np.ndarray | str]]:
-    """Each chunk parsed, in order: in worker processes when there are several chunks and
-    cores. On leaving (an error, an interrupt or the end) the workers are killed at once:
-    no worker outlives the read, none prints a traceback."""
+def _parsed(chunks: list[tuple[str, int, int, AsciiTable]], out: Columns
+            ) -> Iterator[Iterator[np.ndarray | int | str]]:
+    """Each chunk parsed, in order: its rows (an array), or the count of rows it wrote
+    into ``out`` from its row bound on, or its error. Chunks the compiled parser reads
+    are parsed by threads (it releases the GIL) straight into ``out``; others by worker
+    processes when there are several chunks and cores. On leaving (an error, an interrupt
+    or the end) the workers are stopped at once: none outlives the read, none prints a
+    traceback."""
     import multiprocessing as mp
 
+    if chunks and _fast(chunks[0][3]):
+        from concurrent.futures import ThreadPoolExecutor
+
+        from ..neighbours import threads
+
+        jobs = [(c, int(base), out) for c, base in zip(chunks, out.bases, strict=True)]
+        parsers = ThreadPoolExecutor(max(1, min(threads(), len(chunks))))
+        try:
+            yield _ahead(parsers, jobs, 2 * threads())
+        finally:
+            parsers.shutdown(wait=True, cancel_futures=True)
+        return
     workers = min(os.cpu_count() or 1, MAX_WORKERS, len(chunks))
     if workers < 2 or mp.current_process().daemon:
         # a daemonic process (a Dask worker, a pool's worker) may not start children: parse
@@ -215,6 +267,20 @@ def _parsed(chunks: list[tuple[str, int, int, AsciiTable]]) -> Iterator[Iterator
     finally:
         pool.terminate()
         pool.join()
+
+
+def _ahead(pool: Any, jobs: list[Any], depth: int) -> Iterator[int | str]:
+    """Each job's :func:`_fill_chunk` by ``pool``, in order, at most ``depth`` submitted
+    ahead of the one taken."""
+    from collections import deque
+
+    waiting: deque = deque()
+    for job in jobs:
+        waiting.append(pool.submit(_fill_chunk, job))
+        if len(waiting) > depth:
+            yield waiting.popleft().result()
+    while waiting:
+        yield waiting.popleft().result()
 
 
 @contextmanager
@@ -273,18 +339,18 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
             raise InputError(f"{path}: decimal commas in comma-delimited columns cannot be told apart; "
                              "expected another `delimiter`")
         chunks = [(str(lf), a, b, table) for a, b in _chunk_bounds(lf, table.data_start, CHUNK_BYTES)]
-        used = [n for n in table.names if n is not None]
-        coords = [used.index(n) for n in (("lon", "lat", "z") if table.geographic else ("x", "y", "z"))]
-        out = _Columns(used, _line_count(lf, table.data_start), table.geographic)
-        with _parsed(chunks) as results:
+        out = Columns(table.names, _row_bounds(lf, chunks), table.geographic)
+        with _parsed(chunks, out) as results:
             for k, r in enumerate(results):
                 if isinstance(r, str):
                     raise InputError(_locate_error(lf, table).replace(str(lf), str(path)))
-                bad = ~np.isfinite(r[:, coords]).all(axis=1)  # a field may be NaN (no backscatter)
-                if bad.any():
-                    where = _locate_nonfinite(lf, table, out.rows + int(np.flatnonzero(bad)[0]))
+                start = out.rows
+                out.take(r, k)
+                block = out.xyz[start:out.rows]
+                if not np.isfinite(block.ravel()).all():  # a field may be NaN, not a coordinate
+                    bad = ~np.isfinite(block).all(axis=1)
+                    where = _locate_nonfinite(lf, table, start + int(np.flatnonzero(bad)[0]))
                     raise InputError(where.replace(str(lf), str(path)))
-                out.add(r)
                 if progress is not None:
                     progress((k + 1) / len(chunks))
     if table.count is not None and table.count != out.rows:
@@ -295,38 +361,14 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
     return xyz, cols, table
 
 
-def _line_count(path: Path, start: int) -> int:
-    """The line ends after ``start`` plus one: at least the data rows (comments and blank
-    lines count too), so the columns can be allocated before parsing."""
-    n = 1
+def _row_bounds(path: Path, chunks: list[tuple[str, int, int, AsciiTable]]) -> list[int]:
+    """Each chunk's line ends, plus one for a last line without its own: at least the
+    chunk's data rows (comments and blank lines count too), so the columns can be
+    allocated before parsing."""
+    bounds = []
     with open(path, "rb") as fh:
-        fh.seek(start)
-        for block in iter(lambda: fh.read(1 << 23), b""):
-            n += block.count(b"\n")
-    return n
-
-
-class _Columns:
-    """x y z and one array per other field, allocated for at most ``capacity`` rows (pages
-    never written are never resident) and filled chunk by chunk as the parsers return
-    them, so that the values are held once, not once in chunks and again in the result."""
-
-    def __init__(self, used: list[str], capacity: int, geographic: bool) -> None:
-        x, y = ("lon", "lat") if geographic else ("x", "y")
-        at = {name: i for i, name in enumerate(used)}
-        self._xyz_at = [at[x], at[y], at["z"]]
-        self._field_at = {name: i for name, i in at.items() if name not in (x, y, "z")}
-        self.xyz = np.empty((capacity, 3))
-        self.fields = {name: np.empty(capacity) for name in self._field_at}
-        self.rows = 0
-
-    def add(self, part: np.ndarray) -> None:
-        start, stop = self.rows, self.rows + len(part)
-        self.xyz[start:stop] = part[:, self._xyz_at]
-        for name, col in self._field_at.items():
-            self.fields[name][start:stop] = part[:, col]
-        self.rows = stop
-
-    def arrays(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        n = self.rows
-        return self.xyz[:n], {name: col[:n] for name, col in self.fields.items()}
+        for _, start, stop, _ in chunks:
+            fh.seek(start)
+            data = fh.read(stop - start)
+            bounds.append(data.count(b"\n") + (not data.endswith(b"\n")))
+    return bounds
