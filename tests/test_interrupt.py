@@ -1,9 +1,9 @@
 """Ctrl-C, SIGTERM and SIGKILL of the installed command, with real signals.
 
-A 40 MB ASCII file is read by parallel workers; the command is signalled while they work.
-It must exit at once with 130 (Ctrl-C) or 143 (SIGTERM), print no traceback, leave no
-worker alive and no partial output; after a SIGKILL the workers die with it and the next
-run clears the staging folder left behind.
+A 40 MB ASCII file is read (by parser threads; a file the compiled parser cannot read, by
+worker processes); the command is signalled while it reads. It must exit at once with 130
+(Ctrl-C) or 143 (SIGTERM), print no traceback, leave no worker alive and no partial
+output; after a SIGKILL the next run clears the staging folder left behind.
 """
 
 from __future__ import annotations
@@ -58,13 +58,20 @@ def _processes_reading(path: Path) -> list[int]:
     return found
 
 
+def _has_open(pid: int, path: Path) -> bool:
+    try:
+        return any(os.readlink(f) == str(path) for f in Path(f"/proc/{pid}/fd").iterdir())
+    except OSError:
+        return False
+
+
 def _start(big: Path, out: Path) -> subprocess.Popen[str]:
     p = subprocess.Popen([_exe(), "piles", str(big), "--radius", "0.75", "--out", str(out)],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 30
-    while len(_processes_reading(big)) < 3 and time.monotonic() < deadline:  # main + 2 workers
-        time.sleep(0.05)
-    assert len(_processes_reading(big)) >= 3, "the parallel read did not start"
+    while not _has_open(p.pid, big) and time.monotonic() < deadline:
+        time.sleep(0.002)
+    assert _has_open(p.pid, big), "the read did not start"
     return p
 
 

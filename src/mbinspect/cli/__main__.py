@@ -1,5 +1,5 @@
 """``python -m mbinspect.cli``: the command line."""
 
-from .main import run
+from ..command import run
 
 run()
