@@ -339,7 +339,7 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
             raise InputError(f"{path}: decimal commas in comma-delimited columns cannot be told apart; "
                              "expected another `delimiter`")
         chunks = [(str(lf), a, b, table) for a, b in _chunk_bounds(lf, table.data_start, CHUNK_BYTES)]
-        out = Columns(table.names, _row_bounds(lf, chunks), table.geographic)
+        out = Columns(table.names, _row_bounds(chunks), table.geographic)
         with _parsed(chunks, out) as results:
             for k, r in enumerate(results):
                 if isinstance(r, str):
@@ -361,14 +361,21 @@ def read_ascii(path: Path, *, columns: str | Sequence[str] | None = None, delimi
     return xyz, cols, table
 
 
-def _row_bounds(path: Path, chunks: list[tuple[str, int, int, AsciiTable]]) -> list[int]:
+def _row_bounds(chunks: list[tuple[str, int, int, AsciiTable]]) -> list[int]:
     """Each chunk's line ends, plus one for a last line without its own: at least the
     chunk's data rows (comments and blank lines count too), so the columns can be
-    allocated before parsing."""
-    bounds = []
+    allocated before parsing. Counted by threads (NumPy's comparison releases the GIL)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ..neighbours import threads
+
+    with ThreadPoolExecutor(max(1, min(threads(), len(chunks)))) as pool:
+        return list(pool.map(_line_ends, chunks))
+
+
+def _line_ends(chunk: tuple[str, int, int, AsciiTable]) -> int:
+    path, start, stop, _ = chunk
     with open(path, "rb") as fh:
-        for _, start, stop, _ in chunks:
-            fh.seek(start)
-            data = fh.read(stop - start)
-            bounds.append(data.count(b"\n") + (not data.endswith(b"\n")))
-    return bounds
+        fh.seek(start)
+        data = np.frombuffer(fh.read(stop - start), np.uint8)
+    return int(np.count_nonzero(data == 10)) + bool(len(data) and data[-1] != 10)
