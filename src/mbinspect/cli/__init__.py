@@ -9,6 +9,9 @@ written twice. Ctrl-C and SIGTERM end a run within a second with status 130 and 
 leaving nothing partial behind (:mod:`mbinspect.interrupt`).
 """
 
-from .main import build_parser, main, run
+from .main import build_parser, main
 
-__all__ = ["main", "run", "build_parser"]
+__all__ = ["main", "build_parser"]
+
+# the console entry point is mbinspect.command.run: it blocks the signals before this
+# package imports numpy

@@ -10,7 +10,7 @@ import sys
 import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any, NoReturn
+from typing import Any
 
 from ..errors import MBInspectError, NoAnswer
 from ..version import __version__
@@ -197,11 +197,3 @@ def _silence_stdout() -> None:
         os.dup2(devnull, sys.stdout.fileno())
     except (OSError, ValueError):
         pass
-
-
-def run() -> NoReturn:
-    """The console entry point: signals handled (:mod:`mbinspect.interrupt`), then :func:`main`."""
-    from ..interrupt import install
-
-    install()
-    sys.exit(main())
