@@ -1,0 +1,31 @@
+"""The console entry point: what it sets before numpy is imported."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+PROBE = ("import os, sys\n"
+         "from mbinspect.command import prepare\n"
+         "prepare()\n"
+         "import numpy._core.multiarray as m\n"
+         "print(os.environ['NUMPY_MADVISE_HUGEPAGE'], int(m._get_madvise_hugepage()))\n")
+
+
+@pytest.mark.parametrize(("given", "expected"), [(None, "0 0"), ("1", "1 1"), ("0", "0 0")])
+def test_huge_pages_off_unless_the_user_asks(given, expected):
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if given is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = given
+    out = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True, check=True)
+    if sys.platform != "linux" and given is None:  # numpy reads the variable on Linux only
+        pytest.skip("numpy asks for huge pages on Linux only")
+    assert out.stdout.split() == expected.split()
+
+
+def test_the_entry_point_imports_no_numpy_before_it_prepares():
+    code = ("import sys\nimport mbinspect.command\nimport mbinspect.interrupt\n"
+            "print('numpy' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
