@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1] / "src" / "mbinspect"
 #: those below.
 LAYERS: tuple[tuple[int, tuple[str, ...]], ...] = (
     (0, ("errors", "version", "checks", "outputs", "options", "grid", "strays", "geometry", "cloud",
-         "interrupt", "timing", "neighbours", "cellsort", "solids", "forked")),
+         "interrupt", "pages", "timing", "neighbours", "cellsort", "solids", "forked")),
     (1, ("crs", "formats", "sonar", "io", "describe", "fit", "reef_designs", "evaluate", "noise",
          "pipeline", "beam", "pings", "datum", "design_solids")),
     (2, ("seabed", "filters", "segment", "least_depth", "scour")),

@@ -8,32 +8,24 @@ set:
   would take a SIGTERM with its default action and end the process with nothing said and
   something left behind;
 * numpy's request for transparent huge pages is off unless the user set
-  ``NUMPY_MADVISE_HUGEPAGE`` (:data:`HUGEPAGE`).
+  ``NUMPY_MADVISE_HUGEPAGE`` (:mod:`mbinspect.pages`).
 """
 
 from __future__ import annotations
 
-import os
 import sys
 from typing import NoReturn
 
-__all__ = ["run", "HUGEPAGE"]
-
-#: ``NUMPY_MADVISE_HUGEPAGE`` for a run unless the environment sets it. numpy asks the kernel
-#: for 2 MB pages for every large array; a run allocates a few GB once, and each of those
-#: pages is zeroed (and, in a virtual machine, fetched from the host) at its first touch. On
-#: the 3.7 M-sounding reef field that took 2.7-3.5 s of system time against 0.9 s with small
-#: pages: 9.1-9.9 s end to end against 6.9 s (benchmarks/RESULTS.md, issue 32). Set the
-#: variable to 1 to have numpy's default back.
-HUGEPAGE = "0"
+__all__ = ["run", "prepare"]
 
 
 def prepare() -> None:
-    """What must precede numpy's import: the memory request (:data:`HUGEPAGE`), then the
-    signals to their watcher."""
+    """What must precede numpy's import: small pages (:func:`mbinspect.pages.small_pages`),
+    then the signals to their watcher."""
     from .interrupt import install
+    from .pages import small_pages
 
-    os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", HUGEPAGE)
+    small_pages()
     install()
 
 

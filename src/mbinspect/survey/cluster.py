@@ -17,6 +17,7 @@ from typing import Any
 from ..errors import InputWarning, MBInspectError, ParameterError
 from ..grid import machine_memory
 from ..interrupt import signals_kept_blocked
+from ..pages import small_pages_for_children
 
 __all__ = ["machine_memory", "dask_client", "map_tasks", "eta_text", "scheduler_address"]
 
@@ -142,7 +143,8 @@ def _workers_ignore_sigint() -> Iterator[None]:
     if "forkserver" not in multiprocessing.get_all_start_methods():
         yield
         return
-    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}), \
+            small_pages_for_children():  # the server imports numpy: small pages (mbinspect.pages)
         from distributed.utils import get_mp_context
 
         ctx = get_mp_context()  # the server's preload (distributed, numpy, ...), set before it starts
