@@ -5,19 +5,15 @@ and time on site; ``plan.json`` is :meth:`ReefPlanResult.to_dict`, read back by
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..outputs import to_jsonable
 from .layouts import Layout, PlanLine
 from .reef_trial import PlannedUnit
+from .results import null_as_nan
 
 __all__ = ["ReefPlanResult", "ReefPrediction", "UnitPrediction"]
-
-
-def _num(v: Any) -> float:
-    return math.nan if v is None else float(v)
 
 
 @dataclass(frozen=True)
@@ -40,7 +36,7 @@ class UnitPrediction:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> UnitPrediction:
         return cls(str(d["id"]), float(d["found"]), int(d["min_soundings"]), float(d["mean_soundings"]),
-                   _num(d["height_error_rms"]), _num(d["centre_error_rms"]))
+                   null_as_nan(d["height_error_rms"]), null_as_nan(d["centre_error_rms"]))
 
 
 @dataclass(frozen=True)
@@ -83,7 +79,8 @@ class ReefPrediction:
         layout = Layout(d["name"], d["description"], tuple(PlanLine.from_dict(ln) for ln in d["lines"]))
         cubes = d.get("cubes_detected")
         return cls(layout, float(d["time_on_site_s"]), tuple(UnitPrediction.from_dict(u) for u in d["units"]),
-                   None if cubes is None else float(cubes), _num(d["height_sigma"]), _num(d["centre_sigma"]),
+                   None if cubes is None else float(cubes), null_as_nan(d["height_sigma"]),
+                   null_as_nan(d["centre_sigma"]),
                    bool(d["meets_target"]), int(d["surveys"]))
 
 

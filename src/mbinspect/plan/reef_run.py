@@ -28,6 +28,7 @@ from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Frame, Layout, PlanLine, racetrack, structure_frame
 from .options import KNOT, S44_FEATURE, PlanOptions, ping_rate
+from .pool import run_trials
 from .reef_results import ReefPlanResult, ReefPrediction, UnitPrediction
 from .reef_trial import PlannedUnit, ReefSetting, ReefTrial, run_reef_trial
 
@@ -146,24 +147,15 @@ def _predict(layout: Layout, trials: list[ReefTrial], units: tuple[PlannedUnit, 
 
 def _run(jobs: list[tuple[Layout, tuple[PlannedUnit, ...], ReefSetting, int]], workers: int,
          progress: Callable[[float], None] | None) -> list[ReefTrial]:
-    """Every trial, in ``workers`` processes when more than one."""
-    if workers <= 1 or len(jobs) <= 1:
-        out = []
-        for k, job in enumerate(jobs):
-            out.append(run_reef_trial(*job))
-            if progress is not None:
-                progress((k + 1) / len(jobs))
-        return out
-    from concurrent.futures import ProcessPoolExecutor
+    """Every trial (:func:`~mbinspect.plan.pool.run_trials`), the progress as they come in."""
+    done = [0]
 
-    with ProcessPoolExecutor(min(workers, len(jobs))) as pool:
-        futures = [pool.submit(run_reef_trial, *job) for job in jobs]
-        out = []
-        for k, f in enumerate(futures):
-            out.append(f.result())
-            if progress is not None:
-                progress((k + 1) / len(jobs))
-        return out
+    def tick() -> None:
+        done[0] += 1
+        if progress is not None:
+            progress(done[0] / len(jobs))
+
+    return run_trials(run_reef_trial, jobs, workers, tick)
 
 
 def plan_reef_survey(plan: ReefPlan | str | Path, options: PlanOptions, *,

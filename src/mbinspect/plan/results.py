@@ -15,8 +15,9 @@ from .predict import SECTORS, DesignPile
 __all__ = ["PlanResult", "Prediction", "PredictedSpacing"]
 
 
-def _num(v: Any) -> float:
-    return math.nan if v is None else float(v)
+def null_as_nan(value: Any) -> float:
+    """A number read back from a plan's JSON: ``null`` (a NaN written) as NaN."""
+    return math.nan if value is None else float(value)
 
 
 @dataclass(frozen=True)
@@ -38,8 +39,8 @@ class PredictedSpacing:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PredictedSpacing:
-        return cls(int(d["a"]), int(d["b"]), float(d["design"]), _num(d["sigma"]), _num(d["reported_sigma"]),
-                   _num(d["error_rms"]), int(d["surveys"]))
+        return cls(int(d["a"]), int(d["b"]), float(d["design"]), null_as_nan(d["sigma"]),
+                   null_as_nan(d["reported_sigma"]), null_as_nan(d["error_rms"]), int(d["surveys"]))
 
 
 @dataclass(frozen=True)
@@ -80,7 +81,7 @@ class Prediction:
         layout = Layout(d["name"], d["description"], tuple(PlanLine.from_dict(ln) for ln in d["lines"]))
         return cls(layout, float(d["time_on_site_s"]),
                    tuple(PredictedSpacing.from_dict(s) for s in d["predicted"]),
-                   tuple((int(t["id"]), _num(t["sigma"])) for t in d["levels"]),
+                   tuple((int(t["id"]), null_as_nan(t["sigma"])) for t in d["levels"]),
                    tuple((int(u["id"]), tuple(u["sectors"])) for u in d["unseen_sides"]),
                    tuple((int(m["id"]), float(m["share"])) for m in d["missed"]), bool(d["meets_target"]),
                    int(d["surveys"]), float(d.get("calibration", 1.0)))

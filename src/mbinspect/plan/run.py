@@ -18,6 +18,7 @@ from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Layout, candidates, offsets_for, structure_frame, with_both_ways
 from .options import KNOT, PlanOptions, ping_rate
+from .pool import run_trials
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
 from .reef_results import ReefPlanResult
 from .reef_run import plan_reef_survey
@@ -80,27 +81,14 @@ def _options_with(opts: PlanOptions, measured: dict[str, Any] | None) -> PlanOpt
 
 def _run_jobs(jobs: list[tuple[Layout, tuple[DesignPile, ...], Setting, int]], workers: int,
               progress: Callable[[float], None] | None, done: list[int], total: int) -> list[Trial]:
-    """Every trial, in ``workers`` processes when more than one."""
+    """Every trial (:func:`~mbinspect.plan.pool.run_trials`), ``done[0]`` counting them over
+    the search's ``total`` for the progress."""
     def tick() -> None:
         done[0] += 1
         if progress is not None:
             progress(min(done[0] / total, 1.0))
 
-    if workers <= 1 or len(jobs) <= 1:
-        out = []
-        for job in jobs:
-            out.append(run_trial(*job))
-            tick()
-        return out
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(min(workers, len(jobs))) as pool:
-        futures = [pool.submit(run_trial, *job) for job in jobs]
-        out = []
-        for f in futures:
-            out.append(f.result())
-            tick()
-        return out
+    return run_trials(run_trial, jobs, workers, tick)
 
 
 def _rms(values: Sequence[float]) -> float:

@@ -1,0 +1,34 @@
+"""The trials of a plan, in worker processes when there are several to run at once."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
+
+__all__ = ["run_trials"]
+
+T = TypeVar("T")
+
+
+def run_trials(trial: Callable[..., T], jobs: Sequence[tuple[Any, ...]], workers: int,
+               tick: Callable[[], None] | None = None) -> list[T]:
+    """``trial(*job)`` for every job, in job order, in ``min(workers, len(jobs))`` processes
+    when more than one; ``tick`` is called as each result comes in (for progress).
+
+    Examples
+    --------
+    >>> run_trials(pow, [(2, 3), (3, 2)], workers=1)
+    [8, 9]
+    """
+    def done(value: T) -> T:
+        if tick is not None:
+            tick()
+        return value
+
+    if workers <= 1 or len(jobs) <= 1:
+        return [done(trial(*job)) for job in jobs]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(min(workers, len(jobs))) as pool:
+        futures = [pool.submit(trial, *job) for job in jobs]
+        return [done(f.result()) for f in futures]
