@@ -28,7 +28,7 @@ from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Frame, Layout, PlanLine, racetrack, structure_frame
 from .options import KNOT, S44_FEATURE, PlanOptions, ping_rate
-from .pool import run_trials
+from .pool import run_trials, ticker
 from .reef_results import ReefPlanResult, ReefPrediction, UnitPrediction
 from .reef_trial import PlannedUnit, ReefSetting, ReefTrial, run_reef_trial
 
@@ -148,14 +148,7 @@ def _predict(layout: Layout, trials: list[ReefTrial], units: tuple[PlannedUnit, 
 def _run(jobs: list[tuple[Layout, tuple[PlannedUnit, ...], ReefSetting, int]], workers: int,
          progress: Callable[[float], None] | None) -> list[ReefTrial]:
     """Every trial (:func:`~mbinspect.plan.pool.run_trials`), the progress as they come in."""
-    done = [0]
-
-    def tick() -> None:
-        done[0] += 1
-        if progress is not None:
-            progress(done[0] / len(jobs))
-
-    return run_trials(run_reef_trial, jobs, workers, tick)
+    return run_trials(run_reef_trial, jobs, workers, ticker(progress, len(jobs)))
 
 
 def plan_reef_survey(plan: ReefPlan | str | Path, options: PlanOptions, *,

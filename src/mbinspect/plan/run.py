@@ -18,7 +18,7 @@ from ..simulate import named_sonar
 from ..version import __version__
 from .layouts import Layout, candidates, offsets_for, structure_frame, with_both_ways
 from .options import KNOT, PlanOptions, ping_rate
-from .pool import run_trials
+from .pool import run_trials, ticker
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
 from .reef_results import ReefPlanResult
 from .reef_run import plan_reef_survey
@@ -83,12 +83,7 @@ def _run_jobs(jobs: list[tuple[Layout, tuple[DesignPile, ...], Setting, int]], w
               progress: Callable[[float], None] | None, done: list[int], total: int) -> list[Trial]:
     """Every trial (:func:`~mbinspect.plan.pool.run_trials`), ``done[0]`` counting them over
     the search's ``total`` for the progress."""
-    def tick() -> None:
-        done[0] += 1
-        if progress is not None:
-            progress(min(done[0] / total, 1.0))
-
-    return run_trials(run_trial, jobs, workers, tick)
+    return run_trials(run_trial, jobs, workers, ticker(progress, total, done))
 
 
 def _rms(values: Sequence[float]) -> float:
