@@ -18,7 +18,7 @@ from mbinspect.io import PointCloud
 from mbinspect.piles import Design
 from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
 from mbinspect.plan.check import _sides
-from mbinspect.plan.layouts import Layout, PlanLine, candidates, with_both_ways
+from mbinspect.plan.layouts import KNOT, Layout, PlanLine, at_speed, candidates, with_both_ways
 from mbinspect.plan.predict import Setting, as_built_lean, run_trial
 from mbinspect.simulate import named_sonar
 
@@ -148,7 +148,7 @@ def test_the_plan_chooses_the_fastest_layout_that_meets_the_target(planned):
     assert doc["time_on_site_s"] == best.time_on_site_s and doc["predicted"][0].keys() >= {"a", "b", "sigma"}
     with open(root / "out" / "lines.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert list(rows[0]) == ["line", "x_start", "y_start", "x_end", "y_end", "heading"]
+    assert list(rows[0]) == ["line", "x_start", "y_start", "x_end", "y_end", "heading", "speed_kn"]
     assert len(rows) == len(best.layout.lines)
     gj = json.loads((root / "out" / "lines.geojson").read_text())
     lon, lat = gj["features"][0]["geometry"]["coordinates"][0]
@@ -303,3 +303,46 @@ def test_a_layout_predicted_near_the_target_is_surveyed_again_until_clear(monkey
     assert len({t.seed for t in search.trials["near"]}) == 8
     with pytest.raises(ParameterError, match="max_seeds: 2; expected at least seeds"):
         PlanOptions(radius=0.75, depth=21.0, seeds=3, max_seeds=2)
+
+
+def test_a_layout_sailed_slower_gets_its_pings_closer_and_takes_longer(monkeypatch):
+    import mbinspect.plan.predict as predict
+
+    f = structure_frame(np.array(list(SQUARE.positions.values())), radius=0.75)
+    hash_ = {c.name: c for c in candidates(f, offsets=(10.0,), margin=20.0)}["hash-10"]
+    slow = at_speed(hash_, 2.0)
+    assert slow.name == "hash-10@2kn" and slow.lines == hash_.lines
+    # the lines at 2 kn whatever the plan's speed; the turns the same
+    assert slow.time_on_site(4 * KNOT, 100.0) == pytest.approx(4 * 62.0 / (2 * KNOT) + 3 * 100.0)
+    assert with_both_ways(slow).name == "hash-10x2@2kn" and with_both_ways(slow).speed == slow.speed
+    sailed = []
+
+    def spy(scene, plan, seed):
+        sailed.extend(plan.lines)
+        raise StopIteration
+
+    monkeypatch.setattr(predict, "survey", spy)
+    piles = design_piles(SQUARE, PlanOptions(radius=0.75, depth=21.0, height=5.0))
+    setting = Setting(named_sonar("shallow"), 0.2, 4 * KNOT, 21.0, 0.75, 1.0, f.centre)
+    for layout in (hash_, slow):
+        with pytest.raises(StopIteration):
+            run_trial(layout, piles, setting, 1)
+    # the same ping rate: at half the speed, pings half as far apart
+    assert {ln.speed for ln in sailed[:4]} == {4 * KNOT} and {ln.ping_spacing for ln in sailed[:4]} == {0.2}
+    assert {ln.speed for ln in sailed[4:]} == {2 * KNOT}
+    assert {round(ln.ping_spacing, 9) for ln in sailed[4:]} == {0.1}
+    assert PlanOptions(radius=0.75, depth=21.0, speed=3.0, min_speed=2.5).slower_speeds() == ()
+    assert PlanOptions(radius=0.75, depth=21.0, min_speed=0.0).slower_speeds() == (2.8, 2.0)
+
+
+def test_a_layout_meets_the_target_only_at_the_upper_bound_of_its_estimate():
+    from mbinspect.plan.results import PredictedSpacing, Prediction
+
+    def pred(sigma: float, surveys: int) -> Prediction:
+        spacing = PredictedSpacing(1, 2, 22.0, sigma, sigma, sigma, surveys)
+        return Prediction(Layout("x", "x", ()), 600.0, (spacing,), (), (), (), False, surveys)
+
+    # nine surveys estimate a 1-sigma to 1/sqrt(18), a quarter
+    assert pred(0.0142, 9).worst_upper == pytest.approx(0.0142 * (1 + 1 / math.sqrt(18)))
+    assert pred(0.0142, 9).worst_upper > 0.015 > pred(0.0120, 9).worst_upper
+    assert pred(0.0142, 9).sigma_error > pred(0.0142, 20).sigma_error

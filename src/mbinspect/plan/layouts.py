@@ -26,8 +26,11 @@ import numpy as np
 
 from ..geometry import bearing_to_vector, min_area_rectangle, vector_to_bearing
 
-__all__ = ["Frame", "Layout", "PlanLine", "candidates", "racetrack", "offsets_for", "structure_frame",
-           "with_both_ways"]
+__all__ = ["Frame", "Layout", "PlanLine", "at_speed", "candidates", "racetrack", "offsets_for",
+           "structure_frame", "with_both_ways"]
+
+#: One knot in m/s.
+KNOT = 1852.0 / 3600.0
 
 
 @dataclass(frozen=True)
@@ -60,15 +63,19 @@ class PlanLine:
 
 @dataclass(frozen=True)
 class Layout:
-    """A candidate: its name, what it is in words, and its lines in the order sailed."""
+    """A candidate: its name, what it is in words, its lines in the order sailed, and the speed
+    (m/s) they are sailed at when it is not the plan's (:func:`at_speed`)."""
 
     name: str
     description: str
     lines: tuple[PlanLine, ...]
+    speed: float | None = None
 
     def time_on_site(self, speed: float, turn_s: float) -> float:
-        """Seconds on site: every line at ``speed`` (m/s) and a turn of ``turn_s`` between lines."""
-        return sum(line.length for line in self.lines) / speed + turn_s * max(len(self.lines) - 1, 0)
+        """Seconds on site: every line at the layout's speed, else ``speed`` (m/s), and a turn
+        of ``turn_s`` between lines."""
+        sailing = sum(line.length for line in self.lines) / (self.speed or speed)
+        return sailing + turn_s * max(len(self.lines) - 1, 0)
 
 
 @dataclass(frozen=True)
@@ -201,4 +208,18 @@ def with_both_ways(layout: Layout) -> Layout:
     lines: list[PlanLine] = []
     for line in layout.lines:
         lines += [line, line.reversed()]
-    return Layout(layout.name + "x2", layout.description + ", each line sailed both ways", tuple(lines))
+    base, at, pace = layout.name.partition("@")
+    return Layout(f"{base}x2{at}{pace}", layout.description + ", each line sailed both ways", tuple(lines),
+                  layout.speed)
+
+
+def at_speed(layout: Layout, knots: float) -> Layout:
+    """The layout with its lines sailed at ``knots`` (more pings on each pile, longer on site).
+
+    >>> line = PlanLine((0.0, 0.0), (100.0, 0.0))
+    >>> slow = at_speed(Layout("hash-8.5", "the '#'", (line,)), 2.0)
+    >>> slow.name, round(slow.time_on_site(2.0, 180.0))
+    ('hash-8.5@2kn', 97)
+    """
+    return Layout(f"{layout.name}@{knots:g}kn", f"{layout.description}, sailed at {knots:g} kn", layout.lines,
+                  knots * KNOT)

@@ -8,11 +8,10 @@ from dataclasses import dataclass
 from ..checks import fail, within
 from ..options import CHOICES, Options, option
 from ..simulate.sonar import SONARS
+from .layouts import KNOT
 
 __all__ = ["PlanOptions", "KNOT", "SOUND_SPEED", "S44_FEATURE", "ping_rate"]
 
-#: One knot in m/s.
-KNOT = 1852.0 / 3600.0
 
 #: The speed of sound the ping rate is limited by (m/s).
 SOUND_SPEED = 1500.0
@@ -53,6 +52,10 @@ class PlanOptions(Options):
     target_sigma: float = option(0.01, unit="m", check="positive",
                                  help="the 1-sigma every spacing must reach")
     speed: float = option(4.0, unit="kn", check="positive", help="survey speed over the ground")
+    min_speed: float = option(2.0, unit="kn", check="non_negative",
+                              help="the slowest a pile design's lines may be sailed: each layout is also "
+                                   "tried at --speed x 0.71 and x 0.5 where those are not below it (more "
+                                   "pings on each pile may meet the target sooner than more lines)")
     max_angle: float = option(60.0, unit="deg", check=_max_angle,
                               help="the outermost beam kept, from vertical (the swath is twice it)")
     sonar: str = option("shallow-beam", choices="plan_sonar",
@@ -99,6 +102,15 @@ class PlanOptions(Options):
         self.overlap_values()
         if self.max_seeds < self.seeds:
             raise fail("max_seeds", self.max_seeds, f"at least seeds ({self.seeds})")
+
+    def slower_speeds(self) -> tuple[float, ...]:
+        """The speeds (kn) below ``speed`` a pile design's layouts are also tried at.
+
+        >>> PlanOptions(radius=0.75, depth=21.0).slower_speeds()
+        (2.8, 2.0)
+        """
+        steps = (round(self.speed * f, 1) for f in (math.sqrt(0.5), 0.5))
+        return tuple(v for v in steps if self.min_speed - 1e-9 <= v < self.speed)
 
     def offset_values(self) -> tuple[float, ...] | None:
         """The offsets given (m), or None for ``auto``."""

@@ -21,16 +21,19 @@ from .results import PlanResult, Prediction
 __all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows", "line_features", "read_line_plan"]
 
 #: ``lines.csv``'s columns.
-LINE_COLUMNS = ("line", "x_start", "y_start", "x_end", "y_end", "heading")
+LINE_COLUMNS = ("line", "x_start", "y_start", "x_end", "y_end", "heading", "speed_kn")
 
 
 def line_rows(result: PlanResult | ReefPlanResult) -> list[dict[str, Any]]:
-    """The chosen layout's lines, one row each, in the order sailed (heading in degrees)."""
+    """The chosen layout's lines, one row each, in the order sailed (heading in degrees, the
+    speed to sail them at in knots)."""
     best = result.best
     if best is None:
         return []
+    speed = result.speed_kn
     return [{"line": k + 1, "x_start": round(ln.start[0], 3), "y_start": round(ln.start[1], 3),
-             "x_end": round(ln.end[0], 3), "y_end": round(ln.end[1], 3), "heading": round(ln.heading, 2)}
+             "x_end": round(ln.end[0], 3), "y_end": round(ln.end[1], 3), "heading": round(ln.heading, 2),
+             "speed_kn": round(speed, 2) if speed is not None else None}
             for k, ln in enumerate(best.layout.lines)]
 
 
@@ -169,10 +172,11 @@ def _candidates(result: PlanResult) -> str:
 def _spacings(best: Prediction, target: float) -> str:
     rows = [{"pair": f"{s.a}-{s.b}", "design": s.design, "sigma": number(1000 * s.sigma, ".1f"),
              "reported": number(1000 * s.reported_sigma, ".1f"), "error": number(1000 * s.error_rms, ".1f"),
-             "verdict": "meets" if s.sigma <= target else "misses"} for s in best.spacings]
+             "verdict": "meets" if s.sigma * (1 + best.sigma_error) <= target else "misses"}
+            for s in best.spacings]
     return html_table(rows, ["pair", "design", "sigma", "reported", "error", "verdict"],
                       ["spacing", "design (m)", "predicted 1-sigma (mm)", "1-sigma the runs reported (mm)",
-                       "RMS error of the runs (mm)", f"against {1000 * target:g} mm"])
+                       "RMS error of the runs (mm)", f"against {1000 * target:g} mm at the upper bound"])
 
 
 def _page(result: PlanResult, images: dict[str, bytes]) -> str:
@@ -181,7 +185,8 @@ def _page(result: PlanResult, images: dict[str, bytes]) -> str:
     if best is not None:
         banner.append((f"{best.layout.name}: {best.layout.description}; {len(best.layout.lines)} lines, "
                        f"{best.time_on_site_s / 60:.0f} min on site; every spacing predicted within "
-                       f"{1000 * best.worst_sigma:.1f} mm (1-sigma) against a target of "
+                       f"{1000 * best.worst_sigma:.1f} mm (1-sigma; {1000 * best.worst_upper:.1f} mm at the "
+                       f"upper bound of an estimate from {best.surveys} surveys) against a target of "
                        f"{1000 * result.target_sigma:g} mm", "pass" if best.meets_target else "fail"))
     banner += [(w, "undecided") for w in result.warnings]
     sections = [("Plan", verdict_banner(banner))]

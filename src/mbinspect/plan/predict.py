@@ -136,8 +136,10 @@ def run_trial(layout: Layout, piles: tuple[DesignPile, ...], setting: Setting, s
     # every line sailed whole, as the surveyor will: cut to the stretch abeam of the piles (8 m
     # beyond them) the trials' spacing errors came out 8-9 mm RMS on the jacket's chosen lines
     # where the whole lines gave 5.5 mm and the preset's own scene 5.9 mm
+    speed = layout.speed or setting.speed  # the pings come as fast at any speed: closer when slower
+    spacing = setting.ping_spacing * speed / setting.speed
     lines = tuple(Line(((ln.start[0] - ox, ln.start[1] - oy), (ln.end[0] - ox, ln.end[1] - oy)),
-                       ping_spacing=setting.ping_spacing, speed=setting.speed) for ln in layout.lines)
+                       ping_spacing=spacing, speed=speed) for ln in layout.lines)
     cloud, label, ident = survey(scene, Survey(lines, setting.sonar), seed=int(rng.integers(2**31)))
     near = cKDTree(centres + [ox, oy]).query(cloud.xyz[:, :2], distance_upper_bound=NEAR)[0] < NEAR
     cloud, label, ident = cloud.subset(near), label[near], ident[near]

@@ -103,6 +103,12 @@ class ReefPlanResult:
         """The chosen layout's prediction."""
         return next((p for p in self.predictions if p.layout.name == self.chosen), None)
 
+    @property
+    def speed_kn(self) -> float | None:
+        """The speed (kn) the lines are sailed at."""
+        speed = self.parameters.get("speed")
+        return float(speed) if speed is not None else None
+
     def to_dict(self) -> dict[str, Any]:
         """``plan.json`` (``kind`` ``reef-plan``): the chosen layout's ``lines``, ``units``
         and ``time_on_site_s`` at the top level, every candidate under ``layouts``, the others

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..outputs import to_jsonable
-from .layouts import Layout, PlanLine
+from .layouts import KNOT, Layout, PlanLine
 from .predict import SECTORS, DesignPile
 
 __all__ = ["PlanResult", "Prediction", "PredictedSpacing"]
@@ -66,10 +66,24 @@ class Prediction:
         """The largest predicted spacing 1-sigma (inf when a spacing was never measured)."""
         return max((s.sigma for s in self.spacings), default=math.inf)
 
+    @property
+    def sigma_error(self) -> float:
+        """The relative 1-sigma of :attr:`worst_sigma` as an estimate: 1/sqrt(2n) for a
+        1-sigma from ``n`` independent surveys (the spacings of one survey share most of
+        their errors, so the surveys are what count)."""
+        return 1.0 / math.sqrt(2.0 * max(self.surveys, 1))
+
+    @property
+    def worst_upper(self) -> float:
+        """:attr:`worst_sigma` at its estimate's upper 1-sigma bound: what the target is held to."""
+        return self.worst_sigma * (1.0 + self.sigma_error)
+
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.layout.name, "description": self.layout.description,
                 "time_on_site_s": self.time_on_site_s, "meets_target": self.meets_target,
-                "worst_sigma": self.worst_sigma, "surveys": self.surveys, "calibration": self.calibration,
+                "worst_sigma": self.worst_sigma, "worst_sigma_upper": self.worst_upper,
+                "surveys": self.surveys, "calibration": self.calibration,
+                "speed_kn": self.layout.speed / KNOT if self.layout.speed else None,
                 "lines": [{"line": k + 1, **ln.to_dict()} for k, ln in enumerate(self.layout.lines)],
                 "predicted": [s.to_dict() for s in self.spacings],
                 "levels": [{"id": i, "sigma": s} for i, s in self.tops],
@@ -78,7 +92,9 @@ class Prediction:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Prediction:
-        layout = Layout(d["name"], d["description"], tuple(PlanLine.from_dict(ln) for ln in d["lines"]))
+        speed = d.get("speed_kn")
+        layout = Layout(d["name"], d["description"], tuple(PlanLine.from_dict(ln) for ln in d["lines"]),
+                        float(speed) * KNOT if speed else None)
         return cls(layout, float(d["time_on_site_s"]),
                    tuple(PredictedSpacing.from_dict(s) for s in d["predicted"]),
                    tuple((int(t["id"]), null_as_nan(t["sigma"])) for t in d["levels"]),
@@ -104,6 +120,15 @@ class PlanResult:
         """The chosen layout's prediction."""
         return next((p for p in self.predictions if p.layout.name == self.chosen), None)
 
+    @property
+    def speed_kn(self) -> float | None:
+        """The speed (kn) the chosen layout's lines are sailed at."""
+        best = self.best
+        if best is not None and best.layout.speed:
+            return best.layout.speed / KNOT
+        speed = self.parameters.get("speed")
+        return float(speed) if speed is not None else None
+
     def to_dict(self) -> dict[str, Any]:
         """``plan.json``: the chosen layout's ``lines``, ``predicted`` spacings (``a``, ``b``,
         ``sigma``) and ``time_on_site_s`` at the top level, every candidate under ``layouts``
@@ -113,7 +138,8 @@ class PlanResult:
                                "meets_target": best.meets_target if best else False}
         if best is not None:
             b = best.to_dict()
-            top.update(time_on_site_s=b["time_on_site_s"], lines=b["lines"], predicted=b["predicted"],
+            top.update(time_on_site_s=b["time_on_site_s"], speed_kn=self.speed_kn, lines=b["lines"],
+                       predicted=b["predicted"],
                        levels=b["levels"], unseen_sides=b["unseen_sides"])
         top["runner_up"] = [{k: v for k, v in p.to_dict().items() if k in
                              ("name", "description", "time_on_site_s", "meets_target", "worst_sigma")}

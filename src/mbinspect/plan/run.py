@@ -16,7 +16,7 @@ from ..piles import Design, read_design
 from ..reefs.plan import ReefPlan
 from ..simulate import named_sonar
 from ..version import __version__
-from .layouts import Layout, candidates, offsets_for, structure_frame, with_both_ways
+from .layouts import Layout, at_speed, candidates, offsets_for, structure_frame, with_both_ways
 from .options import KNOT, PlanOptions, ping_rate
 from .pool import run_trials, ticker
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
@@ -128,19 +128,15 @@ def _predict(layout: Layout, trials: list[Trial], piles: tuple[DesignPile, ...],
         counts = np.sum([dict(t.sectors)[p.id] for t in trials], axis=0) / max(len(trials), 1)
         unseen.append((p.id, tuple(SECTORS[k] for k in range(8) if counts[k] < SEEN_MIN)))
     missed = tuple((p.id, sum(p.id in t.missed for t in trials) / len(trials)) for p in piles)
-    meets = (bool(spacings) and len(trials) >= options.seeds
-             and all(s.sigma <= options.target_sigma for s in spacings))
-    return Prediction(layout, layout.time_on_site(speed, options.turn_s), tuple(spacings), tuple(tops),
-                      tuple(unseen), missed, meets, len(trials), factor)
+    made = Prediction(layout, layout.time_on_site(speed, options.turn_s), tuple(spacings), tuple(tops),
+                      tuple(unseen), missed, False, len(trials), factor)
+    meets = bool(spacings) and len(trials) >= options.seeds and made.worst_upper <= options.target_sigma
+    return dataclasses.replace(made, meets_target=meets)
 
 
 #: A layout whose one-survey prediction is worse than this many times the target is not
 #: surveyed again (one survey's 1-sigma is rough, but not by half).
 SCREEN = 1.5
-
-#: A layout predicted within this factor of the target (either side) from its surveys so far
-#: is surveyed again (:meth:`_Search.firm`).
-MARGINAL = 1.3
 
 
 @dataclasses.dataclass
@@ -156,12 +152,22 @@ class _Search:
     layouts: dict[str, Layout] = dataclasses.field(default_factory=dict)
     trials: dict[str, list[Trial]] = dataclasses.field(default_factory=dict)
 
+    shown: list[float] = dataclasses.field(default_factory=lambda: [0.0])
+
+    def share(self, value: float) -> None:
+        """The progress, never going back and below 1 until the plan is made (the search's
+        length is known only at its end)."""
+        if self.progress is not None and min(value, 0.99) > self.shown[0]:
+            self.shown[0] = min(value, 0.99)
+            self.progress(self.shown[0])
+
     def run(self, layouts: list[Layout], seeds: list[int]) -> None:
         jobs = [(lay, self.piles, self.setting, s) for lay in layouts for s in seeds]
         for lay in layouts:
             self.layouts[lay.name] = lay
             self.trials.setdefault(lay.name, [])
-        for t in _run_jobs(jobs, self.options.workers, self.progress, self.done, self.total):
+        self.total = max(self.total, self.done[0] + len(jobs) + self.options.seeds)
+        for t in _run_jobs(jobs, self.options.workers, self.share, self.done, self.total):
             self.trials[t.layout].append(t)
 
     def seeds(self) -> list[int]:
@@ -171,15 +177,16 @@ class _Search:
 
     def firm(self, name: str) -> Prediction:
         """The layout surveyed ``seeds`` times in all, then in more batches of ``seeds``
-        (up to ``max_seeds``) while its worst spacing is predicted within :data:`MARGINAL`
-        of the target either side: a few surveys estimate a 1-sigma to a third."""
+        (up to ``max_seeds``) while the target lies within the 1-sigma bounds of its worst
+        spacing's predicted 1-sigma (:attr:`~mbinspect.plan.results.Prediction.sigma_error`:
+        three surveys estimate a 1-sigma to 41 %, nine to 24 %)."""
         seeds, first = self.seeds(), self.options.seeds
         self.run([self.layouts[name]], seeds[len(self.trials[name]):first])
         while True:
             now = self.prediction(name)
             ratio = now.worst_sigma / self.options.target_sigma
             done = len(self.trials[name])
-            if not 1 / MARGINAL < ratio < MARGINAL or done >= len(seeds):
+            if not 1 - now.sigma_error < 1 / ratio < 1 + now.sigma_error or done >= len(seeds):
                 return now
             self.run([self.layouts[name]], seeds[done:done + first])
 
@@ -188,14 +195,24 @@ class _Search:
                         self.options.speed * KNOT)
 
     def screen_then_confirm(self, layouts: list[Layout]) -> Prediction | None:
-        """Each layout surveyed once; those not far from the target, fastest first, surveyed
-        ``seeds`` times in all (more near the target: :meth:`firm`) until one meets it (that
-        one, else None)."""
+        """Each layout surveyed once, and screened at the plan's speed and at each of the
+        slower speeds (:meth:`~mbinspect.plan.options.PlanOptions.slower_speeds`, its 1-sigma
+        taken as the square root of the speed, as the pings on a pile grow); those not far
+        from the target, fastest first, surveyed ``seeds`` times in all (more near the target:
+        :meth:`firm`) until one meets it (that one, else None)."""
         self.run(layouts, self.seeds()[:1])
-        hopeful = [self.prediction(lay.name) for lay in layouts]
-        hopeful = [p for p in hopeful if p.worst_sigma <= SCREEN * self.options.target_sigma]
-        for p in sorted(hopeful, key=lambda p: (p.time_on_site_s, p.layout.name)):
-            full = self.firm(p.layout.name)
+        speed, hopeful = self.options.speed, []
+        for lay in layouts:
+            first = self.prediction(lay.name)
+            variants = [(lay, 1.0)] + [(at_speed(lay, v), math.sqrt(v / speed))
+                                       for v in self.options.slower_speeds() if lay.speed is None]
+            hopeful += [(first.worst_sigma * f, v.time_on_site(speed * KNOT, self.options.turn_s), v)
+                        for v, f in variants]
+        hopeful = [h for h in hopeful if h[0] <= SCREEN * self.options.target_sigma]
+        for _, _, lay in sorted(hopeful, key=lambda h: (h[1], h[2].name)):
+            self.layouts.setdefault(lay.name, lay)
+            self.trials.setdefault(lay.name, [])
+            full = self.firm(lay.name)
             if full.meets_target:
                 return full
         return None
@@ -254,9 +271,11 @@ def plan_survey(design: Design | ReefPlan | str | Path, options: PlanOptions | N
     Candidate layouts (:func:`~mbinspect.plan.layouts.candidates`) are each surveyed
     ``seeds`` times in the simulator with the sonar's beam and error model at the ping
     spacing the speed and ping rate give, and measured by
-    :func:`~mbinspect.piles.locate_piles`; each spacing's predicted 1-sigma is the larger
-    of the 1-sigma those runs reported and the RMS of their errors. The layout chosen meets
-    ``target_sigma`` for every spacing in the least time on site; when no one-way layout
+    :func:`~mbinspect.piles.locate_piles`; each spacing's predicted 1-sigma is the RMS of
+    the 1-sigma those runs reported times the calibration their errors show. The layout
+    chosen meets ``target_sigma`` for every spacing, at the upper 1-sigma bound of the
+    estimate (:attr:`~mbinspect.plan.results.Prediction.worst_upper`), in the least time
+    on site; when no one-way layout
     does, the best two are tried sailed both ways; when still none does, the one with the
     smallest worst spacing 1-sigma is chosen and a warning says so.
 
