@@ -331,8 +331,9 @@ def test_a_layout_sailed_slower_gets_its_pings_closer_and_takes_longer(monkeypat
     assert {ln.speed for ln in sailed[:4]} == {4 * KNOT} and {ln.ping_spacing for ln in sailed[:4]} == {0.2}
     assert {ln.speed for ln in sailed[4:]} == {2 * KNOT}
     assert {round(ln.ping_spacing, 9) for ln in sailed[4:]} == {0.1}
-    assert PlanOptions(radius=0.75, depth=21.0, speed=3.0, min_speed=2.5).slower_speeds() == ()
-    assert PlanOptions(radius=0.75, depth=21.0, min_speed=0.0).slower_speeds() == (2.8, 2.0)
+    assert PlanOptions(radius=0.75, depth=21.0, speed=3.0, min_speed=2.5).slower_speeds() == (2.5,)
+    assert PlanOptions(radius=0.75, depth=21.0, speed=2.0).slower_speeds() == ()
+    assert PlanOptions(radius=0.75, depth=21.0, min_speed=0.0).slower_speeds() == (2.0,)
 
 
 def test_a_layout_meets_the_target_only_at_the_upper_bound_of_its_estimate():

@@ -27,8 +27,8 @@ def add_parser(sub: Any) -> None:
              "both), survey each a few times in the simulator with the sonar's beam and error model at the "
              "ping spacing the speed and ping rate give, measure the piles as 'mbinspect piles' would, and "
              "choose the layout that meets the target 1-sigma for every spacing in the least time on site. "
-             "Writes lines.csv (line,x_start,y_start,x_end,y_end,heading), lines.geojson (WGS 84 with "
-             "--crs), plan.json, plan.png and report.html.",
+             "Writes lines.csv (line,x_start,y_start,x_end,y_end,heading,speed_kn), lines.geojson "
+             "(WGS 84 with --crs), plan.json, plan.png and report.html.",
              "examples:\n  mbinspect plan design.csv --radius 0.75 --depth 21 --height 5 --out plan-out\n"
              "  mbinspect plan design.csv --radius 0.75 --depth 21 --target-sigma 0.015 --speed 3 "
              "--crs EPSG:32650\n"

@@ -54,8 +54,8 @@ class PlanOptions(Options):
     speed: float = option(4.0, unit="kn", check="positive", help="survey speed over the ground")
     min_speed: float = option(2.0, unit="kn", check="non_negative",
                               help="the slowest a pile design's lines may be sailed: each layout is also "
-                                   "tried at --speed x 0.71 and x 0.5 where those are not below it (more "
-                                   "pings on each pile may meet the target sooner than more lines)")
+                                   "tried at half --speed, not below this (more pings on each pile may "
+                                   "meet the target sooner than more lines)")
     max_angle: float = option(60.0, unit="deg", check=_max_angle,
                               help="the outermost beam kept, from vertical (the swath is twice it)")
     sonar: str = option("shallow-beam", choices="plan_sonar",
@@ -104,13 +104,16 @@ class PlanOptions(Options):
             raise fail("max_seeds", self.max_seeds, f"at least seeds ({self.seeds})")
 
     def slower_speeds(self) -> tuple[float, ...]:
-        """The speeds (kn) below ``speed`` a pile design's layouts are also tried at.
+        """The speed (kn) below ``speed`` a pile design's layouts are also tried at: half of
+        it, not below ``min_speed`` (none when that is not below ``speed``).
 
         >>> PlanOptions(radius=0.75, depth=21.0).slower_speeds()
-        (2.8, 2.0)
+        (2.0,)
+        >>> PlanOptions(radius=0.75, depth=21.0, speed=3.0).slower_speeds()
+        (2.0,)
         """
-        steps = (round(self.speed * f, 1) for f in (math.sqrt(0.5), 0.5))
-        return tuple(v for v in steps if self.min_speed - 1e-9 <= v < self.speed)
+        slow = max(self.speed / 2, self.min_speed)
+        return (slow,) if slow < self.speed - 1e-9 else ()
 
     def offset_values(self) -> tuple[float, ...] | None:
         """The offsets given (m), or None for ``auto``."""

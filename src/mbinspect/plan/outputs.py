@@ -1,6 +1,6 @@
 """What ``mbinspect plan`` writes: ``plan.json`` (the result's ``to_dict()``), ``lines.csv``
-(``line,x_start,y_start,x_end,y_end,heading``, what survey software imports), ``lines.geojson``
-(WGS 84) and ``plan.geojson`` (the piles with the sides no beam reaches), ``plan.png`` (the
+(``line,x_start,y_start,x_end,y_end,heading,speed_kn``, what survey software imports),
+``lines.geojson`` (WGS 84) and ``plan.geojson`` (the piles with the sides no beam reaches), ``plan.png`` (the
 lines over the design, the unseen sides, the predicted 1-sigma of every spacing against the
 target) and ``report.html``."""
 
