@@ -177,18 +177,20 @@ class _Search:
 
     def firm(self, name: str) -> Prediction:
         """The layout surveyed ``seeds`` times in all, then in more batches of ``seeds``
-        (up to ``max_seeds``) while the target lies within the 1-sigma bounds of its worst
-        spacing's predicted 1-sigma (:attr:`~mbinspect.plan.results.Prediction.sigma_error`:
-        three surveys estimate a 1-sigma to 41 %, nine to 24 %)."""
+        (rounded up to a multiple of ``workers``; up to ``max_seeds``) while the target lies
+        within the 1-sigma bounds of its worst spacing's predicted 1-sigma
+        (:attr:`~mbinspect.plan.results.Prediction.sigma_error`: three surveys estimate a
+        1-sigma to 41 %, nine to 24 %)."""
         seeds, first = self.seeds(), self.options.seeds
         self.run([self.layouts[name]], seeds[len(self.trials[name]):first])
+        step = -(-first // self.options.workers) * self.options.workers  # no worker left idle
         while True:
             now = self.prediction(name)
             ratio = now.worst_sigma / self.options.target_sigma
             done = len(self.trials[name])
             if not 1 - now.sigma_error < 1 / ratio < 1 + now.sigma_error or done >= len(seeds):
                 return now
-            self.run([self.layouts[name]], seeds[done:done + first])
+            self.run([self.layouts[name]], seeds[done:done + step])
 
     def prediction(self, name: str) -> Prediction:
         return _predict(self.layouts[name], self.trials[name], self.piles, self.options,
