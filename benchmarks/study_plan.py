@@ -79,10 +79,11 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     rows = []
     for which, layout in (("chosen", plan.best.layout), ("'#' + tops", made["hash"])):
         lines = [(ln.start, ln.end) for ln in layout.lines]
-        # a layout sailed slower than the plan's speed gets its pings as much closer
-        pace = layout.speed / plan.parameters["speed_ms"] if layout.speed else 1.0
-        sim = simulate(preset, seed=1000 + seed, ping_spacing=plan.parameters["ping_spacing"] * pace,
-                       sonar=plan.parameters["sonar"], survey_lines=lines)
+        # sailed at the layout's speed (the vessel's motion runs in time), its pings as much closer
+        speed = layout.speed or plan.parameters["speed_ms"]
+        sim = simulate(preset, seed=1000 + seed, sonar=plan.parameters["sonar"], survey_lines=lines,
+                       ping_spacing=plan.parameters["ping_spacing"] * speed / plan.parameters["speed_ms"],
+                       survey_speed=speed)
         truth = {p["id"]: p for p in sim.truth["piles"]}
         res = locate_piles(sim.cloud, radius=opts["radius"], count=len(truth), design=made["design"],
                            seed=seed, beam_width_deg=1.0)

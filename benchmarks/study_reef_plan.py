@@ -72,6 +72,7 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     plan = made["plan"]
     lines = [(ln.start, ln.end) for ln in plan.best.layout.lines]
     sim = simulate("reef-field", seed=1000 + seed, ping_spacing=plan.parameters["ping_spacing"],
+                   survey_speed=plan.parameters["speed_ms"],
                    sonar=plan.parameters["sonar"], survey_lines=lines, **CONFIGS[name])
     truth = {str(r["id"]): r for r in sim.truth["reefs"]}
     on = np.bincount(sim.ident[sim.labels == LABELS["reef"]], minlength=max(int(i) for i in truth) + 1)

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import integer
+from ..checks import integer, positive
 from ..errors import ParameterError
 from ..io import PointCloud, write
 from .builders import build_jacket, build_reef_field, build_wharf
@@ -60,7 +60,7 @@ MAX_SOUNDINGS = 50_000_000
 
 def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | None = None,
              force: bool = False, survey_lines: Sequence[Sequence[Sequence[float]]] | None = None,
-             **overrides: Any) -> Simulation:
+             survey_speed: float | None = None, **overrides: Any) -> Simulation:
     """Simulate a preset survey with exact truth.
 
     Parameters
@@ -76,6 +76,10 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     survey_lines : sequence of ((x, y), (x, y)), optional
         Lines to sail instead of the preset's, each from its start to its end in the scene's
         world coordinates (a plan's ``lines.csv``), at the preset's ``ping_spacing``.
+    survey_speed : float, optional
+        The speed (m/s) ``survey_lines`` are sailed at (the plan's; by default the lines'
+        2 m/s): the vessel's roll, pitch and heave run in time, so the same pings at another
+        speed meet the structure in another phase of its motion.
     **overrides
         Any field of the preset's options (:class:`JacketOptions`,
         :class:`ReefFieldOptions`) or of :class:`Sonar`.
@@ -98,7 +102,7 @@ def simulate(preset: str, *, seed: int = 0, progress: Callable[[float], None] | 
     """
     setup = _setup(preset, seed, overrides)
     if survey_lines is not None:
-        setup = dataclasses.replace(setup, plan=_resailed(setup, survey_lines))
+        setup = dataclasses.replace(setup, plan=_resailed(setup, survey_lines, survey_speed))
     estimate = setup.plan.estimated_soundings()
     if estimate > MAX_SOUNDINGS and not force:
         raise ParameterError(
@@ -129,8 +133,10 @@ def tide_rows(sonar: Sonar, times: np.ndarray) -> list[dict[str, Any]]:
              "height": round(float(h), 4)} for v, h in zip(t, sonar.tide(t), strict=True)]
 
 
-def _resailed(setup: _Setup, lines: Sequence[Sequence[Sequence[float]]]) -> Survey:
-    """The setup's survey with ``lines`` (world coordinates) instead of the preset's."""
+def _resailed(setup: _Setup, lines: Sequence[Sequence[Sequence[float]]], speed: float | None = None
+              ) -> Survey:
+    """The setup's survey with ``lines`` (world coordinates) instead of the preset's, at
+    ``speed`` (m/s) when given."""
     ox, oy = setup.scene.origin
     spacing = setup.plan.lines[0].ping_spacing if setup.plan.lines else 0.1
     out = []
@@ -139,7 +145,8 @@ def _resailed(setup: _Setup, lines: Sequence[Sequence[Sequence[float]]]) -> Surv
         if len(v) < 2 or not all(math.isfinite(c) for p in v for c in p):
             raise ParameterError(f"survey_lines: line {k + 1} is {line!r}; expected a start and an end, "
                                  "each x, y", option="survey_lines")
-        out.append(Line(tuple(v), ping_spacing=spacing))
+        out.append(Line(tuple(v), ping_spacing=spacing) if speed is None else
+                   Line(tuple(v), ping_spacing=spacing, speed=positive("survey_speed", speed)))
     if not out:
         raise ParameterError("survey_lines: no line given; expected at least one", option="survey_lines")
     return Survey(tuple(out), setup.plan.sonar)
