@@ -347,3 +347,16 @@ def test_a_layout_meets_the_target_only_at_the_upper_bound_of_its_estimate():
     assert pred(0.0142, 9).worst_upper == pytest.approx(0.0142 * (1 + 1 / math.sqrt(18)))
     assert pred(0.0142, 9).worst_upper > 0.015 > pred(0.0120, 9).worst_upper
     assert pred(0.0142, 9).sigma_error > pred(0.0142, 20).sigma_error
+
+
+def test_a_line_plan_gives_its_speed_to_the_simulator(tmp_path):
+    from mbinspect.plan.outputs import read_line_speed
+
+    plan = tmp_path / "lines.csv"
+    plan.write_text("line,x_start,y_start,x_end,y_end,heading,speed_kn\n1,0,0,10,0,90,2\n2,10,5,0,5,270,2\n")
+    assert read_line_speed(plan) == pytest.approx(2 * KNOT)
+    plan.write_text("line,x_start,y_start,x_end,y_end,heading\n1,0,0,10,0,90\n")
+    assert read_line_speed(plan) is None
+    plan.write_text("line,x_start,y_start,x_end,y_end,heading,speed_kn\n1,0,0,10,0,90,2\n2,10,5,0,5,270,fast\n")
+    with pytest.raises(InputError, match="line 3, column speed_kn: 'fast'"):
+        read_line_speed(plan)

@@ -149,3 +149,16 @@ def test_bad_options_are_named():
         simulate("jacket", lines="up")
     with pytest.raises(ParameterError, match="radius: 0.0; expected a positive finite number"):
         simulate("jacket", radius=0.0)
+
+
+def test_lines_given_are_sailed_at_the_speed_given():
+    lines = [((512270.0, 3456680.0), (512330.0, 3456680.0))]
+    kw = {"seed": 3, "ping_spacing": 0.5, "survey_lines": lines}
+    default, same, slow = (simulate("jacket", **kw), simulate("jacket", survey_speed=2.0, **kw),
+                           simulate("jacket", survey_speed=1.0, **kw))
+    # the lines' own 2 m/s by default; at another speed the same pings meet the vessel's roll,
+    # pitch and heave in another phase, so the soundings move, not their number
+    assert np.array_equal(default.cloud.xyz, same.cloud.xyz)
+    assert len(slow.cloud) == len(default.cloud) and not np.allclose(slow.cloud.xyz, default.cloud.xyz)
+    with pytest.raises(ParameterError, match="survey_speed"):
+        simulate("jacket", survey_speed=-1.0, **kw)

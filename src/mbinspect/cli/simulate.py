@@ -68,9 +68,12 @@ def _cmd_simulate(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) 
     if args.per_line:
         return _simulate_lines(args, given, out, ext, rep, argv)
     if args.survey_lines:
-        from ..plan.outputs import read_line_plan
+        from ..plan.outputs import read_line_plan, read_line_speed
 
         given["survey_lines"] = read_line_plan(args.survey_lines)
+        speed = read_line_speed(args.survey_lines)  # a plan's lines at its speed
+        if speed is not None:
+            given["survey_speed"] = speed
     with output_dir(out, overwrite=args.overwrite) as tmp:
         t = time.perf_counter()
         sim = simulate(args.preset, seed=args.seed, progress=rep.progress("ray casting"),
@@ -198,7 +201,8 @@ def add_parser(sub: Any) -> None:
                         "of any size in the memory of one line")
     p.add_argument("--survey-lines", metavar="LINES.csv",
                    help="sail these lines instead of the preset's: a lines.csv of 'mbinspect plan' "
-                        "(x_start,y_start,x_end,y_end in the scene's coordinates)")
+                        "(x_start,y_start,x_end,y_end in the scene's coordinates), at its speed_kn "
+                        "where it gives one; --ping-spacing stays yours to set")
     g = p.add_argument_group("survey again (change between surveys)")
     g.add_argument("--resurvey", metavar="TRUTH.json",
                    help="the scene of an earlier simulation (its truth.json), changed by --changes and "

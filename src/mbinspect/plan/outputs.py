@@ -18,7 +18,8 @@ from .predict import SECTORS
 from .reef_results import ReefPlanResult
 from .results import PlanResult, Prediction
 
-__all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows", "line_features", "read_line_plan"]
+__all__ = ["write_plan_outputs", "LINE_COLUMNS", "line_rows", "line_features", "read_line_plan",
+           "read_line_speed"]
 
 #: ``lines.csv``'s columns.
 LINE_COLUMNS = ("line", "x_start", "y_start", "x_end", "y_end", "heading", "speed_kn")
@@ -73,6 +74,41 @@ def read_line_plan(path: str | Path) -> list[tuple[tuple[float, float], tuple[fl
             values.append(v)
         out.append(((values[0], values[1]), (values[2], values[3])))
     return out
+
+
+def read_line_speed(path: str | Path) -> float | None:
+    """The speed (m/s) a ``lines.csv`` asks its lines to be sailed at (its ``speed_kn``
+    column; None without one).
+
+    Raises
+    ------
+    InputError
+        A speed that is not a positive number of knots, or lines asking different speeds.
+    """
+    import csv
+
+    from ..errors import InputError
+    from .layouts import KNOT
+
+    with open(Path(path), newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.DictReader(fh))
+    if not rows or "speed_kn" not in rows[0]:
+        return None
+    speeds = set()
+    for k, row in enumerate(rows, start=2):
+        text = (row["speed_kn"] or "").strip()
+        try:
+            v = float(text)
+        except ValueError:
+            v = math.nan
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"{path}: line {k}, column speed_kn: {text!r}; expected a positive number "
+                             "of knots")
+        speeds.add(v)
+    if len(speeds) > 1:
+        raise InputError(f"{path}: column speed_kn: {', '.join(f'{v:g}' for v in sorted(speeds))}; expected "
+                         "one speed for every line")
+    return speeds.pop() * KNOT
 
 
 def line_features(result: PlanResult | ReefPlanResult) -> list[dict[str, Any]]:
