@@ -128,7 +128,8 @@ def planned(tmp_path_factory):
     design.write_text("id,x,y\n1,512289,3456689\n2,512311,3456689\n3,512289,3456711\n4,512311,3456711\n")
     code = main(["plan", str(design), "--radius", "0.75", "--depth", "21", "--height", "5", "--sonar",
                  "shallow", "--offsets", "10", "--seeds", "2", "--workers", "1", "--speed", "8",
-                 "--target-sigma", "0.03", "--crs", "EPSG:32650", "--out", str(root / "out")])
+                 "--min-speed", "8", "--target-sigma", "0.03", "--crs", "EPSG:32650", "--out",
+                 str(root / "out")])
     return root, code
 
 
@@ -357,6 +358,21 @@ def test_a_line_plan_gives_its_speed_to_the_simulator(tmp_path):
     assert read_line_speed(plan) == pytest.approx(2 * KNOT)
     plan.write_text("line,x_start,y_start,x_end,y_end,heading\n1,0,0,10,0,90\n")
     assert read_line_speed(plan) is None
-    plan.write_text("line,x_start,y_start,x_end,y_end,heading,speed_kn\n1,0,0,10,0,90,2\n2,10,5,0,5,270,fast\n")
+    plan.write_text("line,x_start,y_start,x_end,y_end,heading,speed_kn\n1,0,0,10,0,90,2\n"
+                    "2,10,5,0,5,270,fast\n")
     with pytest.raises(InputError, match="line 3, column speed_kn: 'fast'"):
         read_line_speed(plan)
+
+
+def test_the_plan_sails_slower_where_that_meets_the_target_soonest():
+    r = plan_survey(SQUARE, radius=0.75, depth=21.0, height=5.0, sonar="shallow", offsets="10", seeds=2,
+                    workers=1, speed=8.0, target_sigma=0.03)
+    best = r.best
+    # at 8 kn the two lines along the jacket miss the target; at 4 kn, with pings half as far
+    # apart, they meet it, before the '#' and its turns
+    assert best is not None and best.meets_target and best.layout.name == "along-10@4kn"
+    assert best.layout.speed == pytest.approx(4 * KNOT) and r.speed_kn == pytest.approx(4.0)
+    fast = next(p for p in r.predictions if p.layout.name == "along-10")
+    assert not fast.meets_target and fast.worst_sigma > best.worst_sigma
+    assert best.time_on_site_s > fast.time_on_site_s
+    assert PlanResult.from_dict(r.to_dict()).best.layout.speed == pytest.approx(best.layout.speed)

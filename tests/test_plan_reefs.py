@@ -127,7 +127,7 @@ def test_the_reef_plan_chooses_the_fastest_layout_that_meets_its_targets(reef_pl
     assert doc["min_soundings_reached"] == best.min_soundings and len(doc["units"]) == 4
     with open(root / "out" / "lines.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert list(rows[0]) == ["line", "x_start", "y_start", "x_end", "y_end", "heading"]
+    assert list(rows[0]) == ["line", "x_start", "y_start", "x_end", "y_end", "heading", "speed_kn"]
     assert len(rows) == len(best.layout.lines)
     units = json.loads((root / "out" / "plan.geojson").read_text())["features"]
     assert [u["properties"]["id"] for u in units] == ["A", "B", "C", "D"]
