@@ -38,6 +38,44 @@ def line_rows(result: PlanResult | ReefPlanResult) -> list[dict[str, Any]]:
             for k, ln in enumerate(best.layout.lines)]
 
 
+def _plan_rows(path: str | Path) -> tuple[Path, list[dict[str, str]]]:
+    """The rows of a ``lines.csv`` by column name.
+
+    Raises
+    ------
+    FileAccessError
+        No such file.
+    """
+    import csv
+
+    from ..errors import FileAccessError
+
+    p = Path(path)
+    if not p.is_file():
+        raise FileAccessError(f"{p}: no such file; expected a lines.csv written by 'mbinspect plan'")
+    with open(p, newline="", encoding="utf-8-sig") as fh:
+        return p, list(csv.DictReader(fh))
+
+
+def _cell(p: Path, k: int, row: dict[str, str], column: str, expected: str, positive: bool = False) -> float:
+    """The number in ``column`` of row ``row`` (line ``k`` of ``p``).
+
+    Raises
+    ------
+    InputError
+        Not a finite number (or not above 0 when ``positive``), the line and column named.
+    """
+    from ..errors import InputError
+
+    try:
+        v = float(row[column])
+    except (TypeError, ValueError):
+        v = math.nan
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise InputError(f"{p}: line {k}, column {column}: {row[column]!r}; expected {expected}")
+    return v
+
+
 def read_line_plan(path: str | Path) -> list[tuple[tuple[float, float], tuple[float, float]]]:
     """The lines of a ``lines.csv`` (``x_start,y_start,x_end,y_end`` by name, other columns
     ignored), each ((x, y), (x, y)) from start to end.
@@ -49,30 +87,16 @@ def read_line_plan(path: str | Path) -> list[tuple[tuple[float, float], tuple[fl
     InputError
         A column missing or a value not a finite number; the message names the line and column.
     """
-    import csv
+    from ..errors import InputError
 
-    from ..errors import FileAccessError, InputError
-
-    p = Path(path)
-    if not p.is_file():
-        raise FileAccessError(f"{p}: no such file; expected a lines.csv written by 'mbinspect plan'")
-    with open(p, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.DictReader(fh))
+    p, rows = _plan_rows(path)
     need = ("x_start", "y_start", "x_end", "y_end")
     if not rows or any(c not in rows[0] for c in need):
         raise InputError(f"{p}: line 1: expected the columns {','.join(need)} (and line, heading)")
     out = []
     for k, row in enumerate(rows, start=2):
-        values = []
-        for c in need:
-            try:
-                v = float(row[c])
-            except (TypeError, ValueError):
-                v = math.nan
-            if not math.isfinite(v):
-                raise InputError(f"{p}: line {k}, column {c}: {row[c]!r}; expected a number of metres")
-            values.append(v)
-        out.append(((values[0], values[1]), (values[2], values[3])))
+        x0, y0, x1, y1 = (_cell(p, k, row, c, "a number of metres") for c in need)
+        out.append(((x0, y0), (x1, y1)))
     return out
 
 
@@ -82,31 +106,21 @@ def read_line_speed(path: str | Path) -> float | None:
 
     Raises
     ------
+    FileAccessError
+        No such file.
     InputError
         A speed that is not a positive number of knots, or lines asking different speeds.
     """
-    import csv
-
     from ..errors import InputError
     from .layouts import KNOT
 
-    with open(Path(path), newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.DictReader(fh))
+    p, rows = _plan_rows(path)
     if not rows or "speed_kn" not in rows[0]:
         return None
-    speeds = set()
-    for k, row in enumerate(rows, start=2):
-        text = (row["speed_kn"] or "").strip()
-        try:
-            v = float(text)
-        except ValueError:
-            v = math.nan
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"{path}: line {k}, column speed_kn: {text!r}; expected a positive number "
-                             "of knots")
-        speeds.add(v)
+    speeds = {_cell(p, k, row, "speed_kn", "a positive number of knots", positive=True)
+              for k, row in enumerate(rows, start=2)}
     if len(speeds) > 1:
-        raise InputError(f"{path}: column speed_kn: {', '.join(f'{v:g}' for v in sorted(speeds))}; expected "
+        raise InputError(f"{p}: column speed_kn: {', '.join(f'{v:g}' for v in sorted(speeds))}; expected "
                          "one speed for every line")
     return speeds.pop() * KNOT
 
