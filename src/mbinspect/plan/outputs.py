@@ -222,7 +222,7 @@ def _candidates(result: PlanResult) -> str:
 def _spacings(best: Prediction, target: float) -> str:
     rows = [{"pair": f"{s.a}-{s.b}", "design": s.design, "sigma": number(1000 * s.sigma, ".1f"),
              "reported": number(1000 * s.reported_sigma, ".1f"), "error": number(1000 * s.error_rms, ".1f"),
-             "verdict": "meets" if s.sigma * (1 + best.sigma_error) <= target else "misses"}
+             "verdict": "meets" if best.upper(s.sigma) <= target else "misses"}
             for s in best.spacings]
     return html_table(rows, ["pair", "design", "sigma", "reported", "error", "verdict"],
                       ["spacing", "design (m)", "predicted 1-sigma (mm)", "1-sigma the runs reported (mm)",

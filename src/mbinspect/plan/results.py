@@ -73,10 +73,14 @@ class Prediction:
         their errors, so the surveys are what count)."""
         return 1.0 / math.sqrt(2.0 * max(self.surveys, 1))
 
+    def upper(self, sigma: float) -> float:
+        """A 1-sigma these surveys predicted, at its estimate's upper 1-sigma bound."""
+        return sigma * (1.0 + self.sigma_error)
+
     @property
     def worst_upper(self) -> float:
         """:attr:`worst_sigma` at its estimate's upper 1-sigma bound: what the target is held to."""
-        return self.worst_sigma * (1.0 + self.sigma_error)
+        return self.upper(self.worst_sigma)
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.layout.name, "description": self.layout.description,
