@@ -16,7 +16,8 @@ the beam. Printed per layout: its lines and time on site, the predicted 1-sigma 
 the spacings), the spread of the spacing errors over the surveys (RMS, bias included), their
 ratio pooled and the range of the per-spacing ratios, the share of spacings within 2 sigma
 of the truth (the sigma each run reported, and the predicted one), whether the target was met
-(the spread no larger than the target), and the plan's wall time.
+(the spread no larger than the target; and the worst spacing's spread, as the target holds for
+every spacing), and the plan's wall time.
 """
 
 from __future__ import annotations
@@ -119,9 +120,11 @@ def _summary(name: str, which: str, rs: list[dict]) -> list:
     else:
         pr = ["-", "-", "-", "-"]
     minutes = layout.time_on_site(plan.parameters["speed_ms"], plan.parameters["turn_s"]) / 60
+    worst = max(spread.values())
     return [name, which, layout.name, len(layout.lines), f"{minutes:.0f}", pr[0], f"{1000 * pooled:.1f}",
-            pr[1], pr[2], f"{100 * within_rep:.0f} %", pr[3], f"{measured}/{expected * len(rs)}",
-            "yes" if pooled <= target else "no", f"{1000 * target:g}",
+            f"{1000 * worst:.1f}", pr[1], pr[2], f"{100 * within_rep:.0f} %", pr[3],
+            f"{measured}/{expected * len(rs)}", "yes" if pooled <= target else "no",
+            "yes" if worst <= target else "no", f"{1000 * target:g}",
             f"{made['seconds']:.0f}" if which == "chosen" else "-"]
 
 
@@ -192,8 +195,9 @@ def main() -> None:
             if rs:
                 out.append(_summary(name, which, rs))
     print(table(["config", "layout", "name", "lines", "min on site", "predicted sigma mm", "spread mm",
-                 "predicted/spread", "per spacing", "within 2 sigma (reported)", "within 2 sigma (predicted)",
-                 "spacings measured", "target met", "target mm", "plan s"], out))
+                 "worst spacing's spread mm", "predicted/spread", "per spacing", "within 2 sigma (reported)",
+                 "within 2 sigma (predicted)", "spacings measured", "target met", "every spacing met",
+                 "target mm", "plan s"], out))
 
 
 if __name__ == "__main__":

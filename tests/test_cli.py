@@ -292,7 +292,8 @@ def test_demo_end_to_end_with_the_installed_command(tmp_path):
                       run.stdout)
     assert frame, run.stdout
     miss, reach = int(frame[1]), int(frame[2])
-    assert 50 < miss < reach and miss - (reach - miss) <= 50
+    # undecided: the 95 % interval round the miss holds the tolerance
+    assert miss - (reach - miss) <= 50 < reach
     # the demo's eight lines support a centimetre answer: no pile is flagged, and the exit
     # status says a verdict is undecided
     assert all(not p["flags"] for p in d["piles"]), d["piles"]

@@ -96,8 +96,9 @@ def test_every_export_layout_gives_the_same_reefs_in_memory_and_in_tiles(field, 
     assert len(want) == 4
     assert _reefs([path], opts, tiled=True) == want
     for (x, y), (u, v) in zip(want, reference, strict=True):
-        # the layouts round to a millimetre, which moves a footprint's 0.1 m cells' ties
-        assert abs(x - u) <= 0.05 and abs(y - v) <= 0.05
+        # the layouts round to a millimetre, which moves a footprint's 0.1 m cells' ties: a
+        # centre may move by up to a cell
+        assert abs(x - u) <= 0.1 and abs(y - v) <= 0.1
 
 
 @pytest.mark.parametrize("name", SONAR)

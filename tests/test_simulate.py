@@ -60,13 +60,19 @@ def test_pile_points_on_cylinder_within_noise(jacket_small):
     # as a bias of a few mm; without them, only unbiased per-beam noise remains.
     per_beam = simulate("jacket", seed=11, ping_spacing=0.3, position_sigma=0.0,
                         vertical_sigma=0.0, attitude_sigma_deg=0.0)
-    for sim, bias in ((jacket_small, 0.012), (per_beam, 0.003)):
+    # (per-beam noise alone: each pile's median within 6 mm, 2-3 standard errors of a median
+    # of 200-400 soundings, and their mean within 4 mm; seeds 11-13 gave -4.9..+2.1 mm each,
+    # means -3.1..-0.7 mm)
+    for sim, bias, mean_bias in ((jacket_small, 0.012, 0.012), (per_beam, 0.006, 0.004)):
+        medians = []
         for pile in sim.truth["piles"]:
             s, r, _ = _pile_frame(sim, pile)
             side = s < -0.2
             resid = r[side] - pile["radius"]
-            assert abs(np.median(resid)) < bias
+            medians.append(np.median(resid))
+            assert abs(medians[-1]) < bias
             assert 0.01 < resid.std() < 0.05
+        assert abs(np.mean(medians)) < mean_bias
     sim = jacket_small
     for pile in sim.truth["piles"]:
         s, r, _ = _pile_frame(sim, pile)

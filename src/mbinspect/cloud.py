@@ -151,9 +151,10 @@ def pipeline_input(data: PointCloud | np.ndarray, *, crop: Any = None, minimum: 
     pts = check_points(cloud.xyz, minimum=minimum, name="points")
     notes: list[str] = []
     copies = duplicate_soundings(pts)
-    if copies.any():
+    if copies.sum() > max(10, 1e-4 * len(pts)):  # more than soundings that meet by chance at mm
         notes.append(f"{int(copies.sum()):,} soundings are exact copies of others (a file given twice, an "
                      "export written twice?) and were counted once")
+    if copies.any():
         cloud = cloud.subset(~copies)
         pts = check_points(cloud.xyz, minimum=minimum, name="points")
     deep = deep_outliers(pts[:, 2])

@@ -50,6 +50,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "seabed": ("auto", "plane", "grid"),
     "pile_groups": ("auto", "none"),
     "beam_spacing": ("equidistant", "equiangular"),
+    "motion_phase": ("random", "fixed"),
 }
 
 Check = Callable[[str, Any], Any]

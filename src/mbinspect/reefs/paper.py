@@ -30,7 +30,7 @@ def paper_clusters(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, *, e
     Examples
     --------
     >>> from mbinspect.simulate import simulate
-    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.8,
+    >>> sim = simulate("reef-field", seed=1, groups="cross1", per_group=4, ping_spacing=0.4,
     ...                close_pairs=0, boulders=0, debris=0)
     >>> from mbinspect.reefs import fit_seabed
     >>> plane, _ = fit_seabed(sim.cloud.xyz, mode="plane")

@@ -63,6 +63,10 @@ class Sonar(Beam):
     pitch_amplitude_deg: float = option(1.0, unit="deg", check="non_negative",
                                         help="vessel pitch (compensated) that steers the beams")
     heave_amplitude: float = option(0.2, unit="m", help="vessel heave (compensated)", check="non_negative")
+    motion_phase: str = option("random", choices="motion_phase",
+                               help="phase of the roll, pitch and heave at each line's start: drawn per "
+                                    "line from the seed (random), or the same on every line of every survey "
+                                    "(fixed)")
     spike_rate: float = option(0.001, check="non_negative",
                                help="share of soundings that are multipath spikes (long ranges)")
     water_column_rate: float = option(0.0005, check="non_negative",

@@ -47,7 +47,7 @@ def survey(scene: Scene, plan: Survey, *, seed: int | None = 0,
         raise ParameterError(f"noise_scale: {sonar.noise_scale} is negative; expected >= 0")
     rng = np.random.default_rng(seed)
     beams = sonar.beam_angles()
-    track = _track(plan)
+    track = _track(plan, seed)
     err = _errors(sonar, track, len(plan.lines), beams, rng, seed)
     all_targets = targets(scene)
     parts = []
@@ -96,7 +96,7 @@ def line_times(plan: Survey) -> list[tuple[float, float]]:
     return out
 
 
-def _track(plan: Survey) -> _Track:
+def _track(plan: Survey, seed: int | None) -> _Track:
     sonar = plan.sonar
     pos_l, head_l, dist_l, line_l, utc_l = [], [], [], [], []
     start = sonar.start_time
@@ -109,11 +109,26 @@ def _track(plan: Survey) -> _Track:
         utc_l.append(start + dist_l[-1])  # the lines one after another, a turn between two
         start = float(utc_l[-1][-1]) + sonar.turn_s if len(pos) else start
     time = np.concatenate(dist_l)
-    roll = math.radians(sonar.roll_amplitude_deg) * np.sin(2 * np.pi * time / 7.0 + 0.3)
-    pitch = math.radians(sonar.pitch_amplitude_deg) * np.sin(2 * np.pi * time / 5.0 + 1.1)
-    heave = sonar.heave_amplitude * np.sin(2 * np.pi * time / 6.0)
-    return _Track(np.concatenate(pos_l), np.concatenate(head_l), time, np.concatenate(line_l), roll, pitch,
+    line_id = np.concatenate(line_l)
+    phase = _motion_phase(sonar, len(plan.lines), seed)[line_id - 1]  # (n_ping, 3)
+    roll = math.radians(sonar.roll_amplitude_deg) * np.sin(2 * np.pi * time / 7.0 + phase[:, 0])
+    pitch = math.radians(sonar.pitch_amplitude_deg) * np.sin(2 * np.pi * time / 5.0 + phase[:, 1])
+    heave = sonar.heave_amplitude * np.sin(2 * np.pi * time / 6.0 + phase[:, 2])
+    return _Track(np.concatenate(pos_l), np.concatenate(head_l), time, line_id, roll, pitch,
                   heave, np.concatenate(utc_l))
+
+
+def _motion_phase(sonar: Sonar, n_lines: int, seed: int | None) -> np.ndarray:
+    """The roll, pitch and heave phases (rad) at each line's start, shape (n_lines, 3).
+
+    The sea's phase is random: a fixed one puts the boat at the same point of its motion over
+    each object in every survey at one speed, a bias that many surveys would repeat. Drawn
+    from their own stream, so the other errors of a seed stay as they were.
+    """
+    if sonar.motion_phase == "fixed":
+        return np.tile([0.3, 1.1, 0.0], (n_lines, 1))
+    mrng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+    return mrng.uniform(0.0, 2 * np.pi, (n_lines, 3))
 
 
 @dataclass(frozen=True)
