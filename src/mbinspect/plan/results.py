@@ -12,7 +12,7 @@ from ..outputs import to_jsonable
 from .layouts import KNOT, Layout, PlanLine
 from .predict import SECTORS, DesignPile
 
-__all__ = ["PlanResult", "Prediction", "PredictedSpacing"]
+__all__ = ["PlanResult", "Prediction", "PredictedSpacing", "SCATTER_FLOOR"]
 
 
 def null_as_nan(value: Any) -> float:
@@ -43,6 +43,12 @@ class PredictedSpacing:
                    null_as_nan(d["reported_sigma"]), null_as_nan(d["error_rms"]), int(d["surveys"]))
 
 
+#: The least relative scatter of a prediction from one survey: the scatter of a layout's worst
+#: predicted 1-sigma between independent sets of three surveys was 12 % and 28 % (two '#'
+#: layouts at 2 kn, eight sets each; ``benchmarks/RESULTS.md``), 0.21 and 0.49 per survey.
+SCATTER_FLOOR = 0.2
+
+
 @dataclass(frozen=True)
 class Prediction:
     """One candidate layout: its lines, time on site (s), predicted spacings, each top level's
@@ -60,6 +66,7 @@ class Prediction:
     meets_target: bool
     surveys: int
     calibration: float = 1.0
+    scatter: float = math.nan
 
     @property
     def worst_sigma(self) -> float:
@@ -68,10 +75,14 @@ class Prediction:
 
     @property
     def sigma_error(self) -> float:
-        """The relative 1-sigma of :attr:`worst_sigma` as an estimate: 1/sqrt(2n) for a
-        1-sigma from ``n`` independent surveys (the spacings of one survey share most of
-        their errors, so the surveys are what count)."""
-        return 1.0 / math.sqrt(2.0 * max(self.surveys, 1))
+        """The relative 1-sigma of :attr:`worst_sigma` as an estimate from ``surveys`` surveys:
+        the ``scatter`` its surveys show (a delete-one jackknife over them), at least
+        :data:`SCATTER_FLOOR` / sqrt(n); 1/sqrt(2n), the bound of an RMS of n errors, where
+        no scatter is known (one survey, or a plan written before it was kept)."""
+        n = max(self.surveys, 1)
+        if not math.isfinite(self.scatter):
+            return 1.0 / math.sqrt(2.0 * n)
+        return max(self.scatter, SCATTER_FLOOR / math.sqrt(n))
 
     def upper(self, sigma: float) -> float:
         """A 1-sigma these surveys predicted, at its estimate's upper 1-sigma bound."""
@@ -87,6 +98,7 @@ class Prediction:
                 "time_on_site_s": self.time_on_site_s, "meets_target": self.meets_target,
                 "worst_sigma": self.worst_sigma, "worst_sigma_upper": self.worst_upper,
                 "surveys": self.surveys, "calibration": self.calibration,
+                "scatter": self.scatter, "sigma_error": self.sigma_error,
                 "speed_kn": self.layout.speed / KNOT if self.layout.speed else None,
                 "lines": [{"line": k + 1, **ln.to_dict()} for k, ln in enumerate(self.layout.lines)],
                 "predicted": [s.to_dict() for s in self.spacings],
@@ -104,7 +116,7 @@ class Prediction:
                    tuple((int(t["id"]), null_as_nan(t["sigma"])) for t in d["levels"]),
                    tuple((int(u["id"]), tuple(u["sectors"])) for u in d["unseen_sides"]),
                    tuple((int(m["id"]), float(m["share"])) for m in d["missed"]), bool(d["meets_target"]),
-                   int(d["surveys"]), float(d.get("calibration", 1.0)))
+                   int(d["surveys"]), float(d.get("calibration", 1.0)), null_as_nan(d.get("scatter")))
 
 
 @dataclass(frozen=True)
