@@ -168,3 +168,18 @@ def test_lines_given_are_sailed_at_the_speed_given():
     assert len(slow.cloud) == len(default.cloud) and not np.allclose(slow.cloud.xyz, default.cloud.xyz)
     with pytest.raises(ParameterError, match="survey_speed"):
         simulate("jacket", survey_speed=-1.0, **kw)
+
+
+def test_the_vessel_motion_starts_each_line_at_a_phase_of_its_seed():
+    from mbinspect.simulate.sonar import Sonar
+    from mbinspect.simulate.survey import _motion_phase
+
+    one, again, other = (_motion_phase(Sonar(), 4, s) for s in (5, 5, 6))
+    assert one.shape == (4, 3) and np.array_equal(one, again) and not np.allclose(one, other)
+    assert len(np.unique(one[:, 0])) == 4  # each line its own phase
+    fixed = _motion_phase(Sonar(motion_phase="fixed"), 2, 5)
+    assert fixed.tolist() == [[0.3, 1.1, 0.0]] * 2
+    # the phase steers the beams: the same seed's soundings land elsewhere
+    a = simulate("jacket", seed=3, ping_spacing=1.0, noise_scale=0.0)
+    b = simulate("jacket", seed=3, ping_spacing=1.0, noise_scale=0.0, motion_phase="fixed")
+    assert len(a.cloud) != len(b.cloud) or not np.allclose(a.cloud.xyz, b.cloud.xyz)
