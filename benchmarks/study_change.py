@@ -36,11 +36,12 @@ from mbinspect.reefs import extract_reefs  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 from mbinspect.simulate.resurvey import random_changes, resurvey  # noqa: E402
 
-#: configuration -> (simulate keywords, shift scale: plan m, vertical m)
-CONFIGS: dict[str, tuple[dict, tuple[float, float]]] = {
-    "default": ({}, (0.5, 0.3)),
-    "no-offset": ({}, (0.0, 0.0)),
-    "classic": ({"sonar": "classic"}, (0.5, 0.3)),
+#: configuration -> (simulate keywords, shift scale: plan m, vertical m, compare_surveys options)
+CONFIGS: dict[str, tuple[dict, tuple[float, float], dict]] = {
+    "default": ({}, (0.5, 0.3), {}),
+    "no-offset": ({}, (0.0, 0.0), {}),
+    "classic": ({"sonar": "classic"}, (0.5, 0.3), {}),
+    "seabed-only": ({}, (0.5, 0.3), {"tie_objects": False}),
 }
 
 #: What each kind of change must show to count as found.
@@ -53,7 +54,7 @@ SHOWN = {"faint scour": "scour_depth", "move": "displacement", "settle": "settle
 
 def run_one(args: tuple[str, int]) -> list[dict]:
     name, seed = args
-    kw, (plan_shift, vert_shift) = CONFIGS[name]
+    kw, (plan_shift, vert_shift), change_kw = CONFIGS[name]
     before = simulate("reef-field", seed=seed, **kw)
     rng = np.random.default_rng(1000 + seed)
     shift = (rng.uniform(-plan_shift, plan_shift), rng.uniform(-plan_shift, plan_shift),
@@ -64,7 +65,7 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     rb = extract_reefs(before.cloud, design=designs, seed=seed)
     ra = extract_reefs(after.cloud, design=designs, seed=seed)
     res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
-                          after_fields=after.cloud.fields)
+                          after_fields=after.cloud.fields, **change_kw)
     kinds = {c.id: _kind(c) for c in changes}
     # a pit mostly under its unit leaves a faint scour beyond it: counted apart
     true = {o["id"]: o for o in after.truth["change"]["objects"]}

@@ -1,7 +1,13 @@
 """Plan before you sail (issue 31): is the predicted 1-sigma of a planned layout the spread of
 its spacing errors, and does the chosen layout meet the target in no more time than the '#'?
 
-Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jacket-15mm,xtf]``.
+Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jacket-15mm,xtf]
+[--layout NAME]``.
+
+``--layout NAME`` (one configuration) skips the search and plans that layout alone (say, what
+an earlier search chose: ``hash-4.5+topsx2``, ``hash-8.5@2kn``): the same seeds give the same
+trials, so its prediction is the search's, and its surveys take minutes where the wharf's
+search takes an hour. The plan's seconds are then that layout's alone.
 
 ``xtf`` is the real background: a small jacket injected beside the R2Sonic XTF's own line at
 four places, against the plan's prediction for that line with the sonar measured from the file.
@@ -26,6 +32,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +40,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import own_line, run_study, table  # noqa: E402
 from mbinspect.piles import Design, locate_piles  # noqa: E402
 from mbinspect.plan import plan_survey, structure_frame  # noqa: E402
-from mbinspect.plan.layouts import candidates  # noqa: E402
+from mbinspect.plan.layouts import Layout, at_speed, candidates, with_both_ways  # noqa: E402
+from mbinspect.plan.options import PlanOptions  # noqa: E402
+from mbinspect.plan.run import design_piles  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
 
 #: name -> (preset, plan options, the preset's '#' offset from its piles)
@@ -56,11 +65,31 @@ def _design(preset: str) -> Design:
                   source=f"{preset} preset")
 
 
-def make_plan(name: str) -> None:
+def named_layout(frame: Any, name: str) -> Layout:
+    """The candidate layout called ``name`` (``hash-4.5+tops``, with ``x2`` for both ways and
+    ``@2kn`` for a slower speed)."""
+    base, _, pace = name.partition("@")
+    both = base.endswith("x2")
+    base = base.removesuffix("x2")
+    offset = float(base.split("-")[1].split("+")[0]) if "-" in base else 10.0
+    found = {c.name: c for c in candidates(frame, offsets=(offset,), margin=20.0)}
+    if base not in found:
+        sys.exit(f"--layout: {name!r} is not a candidate; expected one of {', '.join(sorted(found))}")
+    layout = with_both_ways(found[base]) if both else found[base]
+    return at_speed(layout, float(pace.removesuffix("kn"))) if pace else layout
+
+
+def make_plan(name: str, layout: str | None = None) -> None:
     preset, opts, offset = CONFIGS[name]
     design = _design(preset)
     t = time.perf_counter()
-    plan = plan_survey(design, **opts)
+    if layout is not None:
+        piles = design_piles(design, PlanOptions(**opts))
+        frame = structure_frame(np.array([[p.x, p.y] for p in piles]), radius=opts["radius"],
+                                groups=[p.group for p in piles])
+        plan = plan_survey(design, **opts, layouts=[named_layout(frame, layout)])
+    else:
+        plan = plan_survey(design, **opts)
     seconds = time.perf_counter() - t
     xy = np.array([[p.x, p.y] for p in plan.piles])
     frame = structure_frame(xy, radius=opts["radius"], groups=[p.group for p in plan.piles])
@@ -185,8 +214,13 @@ def main() -> None:
             sys.argv[sys.argv.index("--configs") + 1] = ",".join(chosen)
         else:
             sys.argv += ["--configs", ",".join(chosen)]
+    layout = sys.argv[sys.argv.index("--layout") + 1] if "--layout" in sys.argv else None
+    if layout is not None:
+        if len(chosen) != 1:
+            sys.exit("--layout: names one layout; expected one configuration in --configs")
+        del sys.argv[sys.argv.index("--layout"):sys.argv.index("--layout") + 2]
     for name in chosen:
-        make_plan(name)
+        make_plan(name, layout)
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)
     out = []
     for name in chosen:

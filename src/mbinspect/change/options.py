@@ -47,5 +47,8 @@ class ChangeOptions(Options):
     level_lines: bool = option(True, help="where pings and lines are known, level each survey's pings "
                                           "against the others of their line, then its lines against each "
                                           "other, before gridding (heave, tide or draft errors leave steps)")
+    tie_objects: bool = option(True, help="refine the plan shift on the matched objects that kept their "
+                                          "place (a majority, at least 5, agreeing with the seabed's shift "
+                                          "within 3 sigma); off: the seabed's shift alone")
     rotation: bool = option(True, help="estimate a small rotation between the surveys where the seabed "
                                        "holds it")

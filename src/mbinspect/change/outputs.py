@@ -136,7 +136,9 @@ def _registration(reg: Any) -> str:
     note = f"<p>{html.escape(reg.note)}</p>" if reg.note else ""
     return (html_table(rows, ["quantity", "value", "sigma"], ["", "value (m)", "1-sigma"]) + note
             + f"<p>From {reg.cells:,} cells ({reg.area:,.0f} m²) of seabed away from the objects; residual "
-              f"spread {number(reg.residual_rms)} m; covariance over {reg.blocks} parts of the seabed.</p>")
+              f"spread {number(reg.residual_rms)} m; covariance over {reg.blocks} parts of the seabed"
+            + (f"; the plan shift refined on {reg.ties} objects that kept their place" if reg.ties else "")
+            + ".</p>")
 
 
 def _changes(objs: list[ObjectChange]) -> str:

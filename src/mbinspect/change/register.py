@@ -51,6 +51,9 @@ class Registration:
         Why a part could not be estimated, or empty.
     cov : ndarray
         The covariance of ``(dx, dy, dz, theta_rad)``.
+    ties : int
+        The objects that kept their place on which the plan shift was refined
+        (:func:`~mbinspect.change.tie.tie_to_objects`); 0: the seabed's alone.
     """
 
     dx: float
@@ -68,6 +71,7 @@ class Registration:
     blocks: int
     note: str = ""
     cov: np.ndarray = field(default_factory=lambda: np.full((4, 4), np.nan), repr=False, compare=False)
+    ties: int = 0
 
     def to_before(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Plan positions of the after survey carried into the before survey's frame."""
@@ -92,7 +96,7 @@ class Registration:
                 "sigma_dx": self.sigma_dx, "sigma_dy": self.sigma_dy, "sigma_dz": self.sigma_dz,
                 "sigma_rotation_deg": self.sigma_rotation_deg, "centre": list(self.centre),
                 "area": self.area, "cells": self.cells, "residual_rms": self.residual_rms,
-                "blocks": self.blocks, "note": self.note,
+                "blocks": self.blocks, "note": self.note, "ties": self.ties,
                 "cov": [[float(v) for v in row] for row in self.cov]})
 
     @classmethod
@@ -104,7 +108,7 @@ class Registration:
         return cls(num("dx"), num("dy"), num("dz"), num("rotation_deg"), num("sigma_dx"), num("sigma_dy"),
                    num("sigma_dz"), num("sigma_rotation_deg"), (float(d["centre"][0]), float(d["centre"][1])),
                    num("area"), int(d["cells"]), num("residual_rms"), int(d["blocks"]),
-                   str(d.get("note", "")), cov)
+                   str(d.get("note", "")), cov, int(d.get("ties", 0)))
 
 
 #: No offset, nothing known: what a comparison uses when no seabed is shared.

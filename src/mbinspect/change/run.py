@@ -23,6 +23,7 @@ from .options import ChangeOptions
 from .piles import exposed_height, pile_change, pile_footprint, pile_outline
 from .register import IDENTITY, Registration, register
 from .results import ChangeResult, ObjectChange
+from .tie import tie_to_objects
 
 __all__ = ["compare_surveys"]
 
@@ -86,6 +87,8 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     warnings += _unlevelled(before_fields, after_fields, opt.level_lines)
     spots = _spots(before) + _spots(after)
     reg, beams = _registered(b_pts, a_pts, (b_in, a_in), spots, lo, hi, opt)
+    if opt.tie_objects:
+        reg = _tied(reg, before, after, opt)
     report(0.6)
     if reg is IDENTITY:
         warnings.append(reg.note)
@@ -147,6 +150,20 @@ def _registered(b_pts: np.ndarray, a_pts: np.ndarray, inner: tuple[np.ndarray, n
     if every is not IDENTITY and (reg is IDENTITY or not plan[0] <= 1.5 * plan[1]):
         return every, "all"
     return reg, f"within {opt.inner_angle_deg:g} deg of nadir"
+
+
+def _positions(r: Result) -> np.ndarray:
+    items = r.piles if isinstance(r, PileResult) else r.reefs
+    return np.array([[o.x, o.y] for o in items], np.float64).reshape(-1, 2)
+
+
+def _tied(reg: Registration, before: Result, after: Result, opt: ChangeOptions) -> Registration:
+    """The registration's plan shift refined on the matched objects that kept their place
+    (:func:`~mbinspect.change.tie.tie_to_objects`)."""
+    bxy, axy = _positions(before), _positions(after)
+    carried = np.column_stack(reg.to_before(axy[:, 0], axy[:, 1])).reshape(-1, 2)
+    return tie_to_objects(reg, bxy, carried, match_objects(bxy, carried, max_move=opt.max_move),
+                          noise=math.sqrt(2) * opt.position_sigma)
 
 
 def _unlevelled(before: Mapping[str, Any] | None, after: Mapping[str, Any] | None, level: bool) -> list[str]:

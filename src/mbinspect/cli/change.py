@@ -134,8 +134,9 @@ def _print(result: Any) -> None:
     c = result.counts()
     reg = result.registration
     print(f"registration: dx {reg.dx:+.3f} ± {reg.sigma_dx:.3f} m, dy {reg.dy:+.3f} ± {reg.sigma_dy:.3f} m, "
-          f"dz {reg.dz:+.3f} ± {reg.sigma_dz:.3f} m (1-sigma)" if math.isfinite(reg.sigma_dz)
-          else f"registration: none ({reg.note})")
+          f"dz {reg.dz:+.3f} ± {reg.sigma_dz:.3f} m (1-sigma)"
+          + (f"; plan shift refined on {reg.ties} objects that kept their place" if reg.ties else "")
+          if math.isfinite(reg.sigma_dz) else f"registration: none ({reg.note})")
     print(f"{c['changed']} changed, {c['unchanged']} no detectable change, {c['removed']} removed, "
           f"{c['new']} new")
     words = {"displacement": "moved", "rotation_deg": "turned", "settlement": "settled",
