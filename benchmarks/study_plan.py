@@ -2,12 +2,14 @@
 its spacing errors, and does the chosen layout meet the target in no more time than the '#'?
 
 Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jacket-15mm,xtf]
-[--layout NAME]``.
+[--layout NAME] [--hash NAME]``.
 
 ``--layout NAME`` (one configuration) skips the search and plans that layout alone (say, what
 an earlier search chose: ``hash-4.5+topsx2``, ``hash-8.5@2kn``): the same seeds give the same
 trials, so its prediction is the search's, and its surveys take minutes where the wharf's
-search takes an hour. The plan's seconds are then that layout's alone.
+search takes an hour. The plan's seconds are then that layout's alone. ``--hash NAME`` sails
+another variant of the paper's '#' beside it (``hash-12.5+topsx2``, ``hash-12.5+tops@2kn``):
+the '#' that meets a target, where the '#' with tops alone does not.
 
 ``xtf`` is the real background: a small jacket injected beside the R2Sonic XTF's own line at
 four places, against the plan's prediction for that line with the sonar measured from the file.
@@ -79,7 +81,7 @@ def named_layout(frame: Any, name: str) -> Layout:
     return at_speed(layout, float(pace.removesuffix("kn"))) if pace else layout
 
 
-def make_plan(name: str, layout: str | None = None) -> None:
+def make_plan(name: str, layout: str | None = None, hash_name: str | None = None) -> None:
     preset, opts, offset = CONFIGS[name]
     design = _design(preset)
     t = time.perf_counter()
@@ -93,7 +95,8 @@ def make_plan(name: str, layout: str | None = None) -> None:
     seconds = time.perf_counter() - t
     xy = np.array([[p.x, p.y] for p in plan.piles])
     frame = structure_frame(xy, radius=opts["radius"], groups=[p.group for p in plan.piles])
-    hash_ = next(c for c in candidates(frame, offsets=(offset,), margin=20.0) if c.name.endswith("+tops"))
+    hash_ = named_layout(frame, hash_name) if hash_name else next(
+        c for c in candidates(frame, offsets=(offset,), margin=20.0) if c.name.endswith("+tops"))
     PLANS[name] = {"plan": plan, "hash": hash_, "seconds": seconds, "design": design}
     print(f"{name}: planned in {seconds:.0f} s: {plan.chosen}, {plan.best.time_on_site_s / 60:.0f} min, "
           f"worst {1000 * plan.best.worst_sigma:.1f} mm; tried " + ", ".join(
@@ -214,13 +217,15 @@ def main() -> None:
             sys.argv[sys.argv.index("--configs") + 1] = ",".join(chosen)
         else:
             sys.argv += ["--configs", ",".join(chosen)]
-    layout = sys.argv[sys.argv.index("--layout") + 1] if "--layout" in sys.argv else None
-    if layout is not None:
-        if len(chosen) != 1:
-            sys.exit("--layout: names one layout; expected one configuration in --configs")
-        del sys.argv[sys.argv.index("--layout"):sys.argv.index("--layout") + 2]
+    named = {}
+    for flag in ("--layout", "--hash"):
+        if flag in sys.argv:
+            if len(chosen) != 1:
+                sys.exit(f"{flag}: names one layout; expected one configuration in --configs")
+            named[flag] = sys.argv[sys.argv.index(flag) + 1]
+            del sys.argv[sys.argv.index(flag):sys.argv.index(flag) + 2]
     for name in chosen:
-        make_plan(name, layout)
+        make_plan(name, named.get("--layout"), named.get("--hash"))
     chosen, results = run_study(__doc__, list(CONFIGS), 20, run_one)
     out = []
     for name in chosen:

@@ -101,6 +101,13 @@ def test_each_change_is_within_its_level_of_detection_of_the_truth(pair):
     for rid, name in ((5, "displacement"), (3, "settlement")):
         v = by[rid].values
         assert abs(v[name] - t[rid][name]) <= v[name + "_lod95"], (rid, name, v[name], t[rid][name])
+    # settlement from the plane through each top in the levelled soundings: the settled unit
+    # 8 mm off, the quiet units 1 cm RMS; the unit on its side falls back to its least depths
+    assert abs(by[3].values["settlement"] - t[3]["settlement"]) < 0.03
+    quiet = [i for i in by if i not in (3, 5, 12, 13, 16, 100) and by[i].id_before is not None]
+    assert all(math.isfinite(by[i].values["top_level_before"]) for i in quiet)
+    assert np.sqrt(np.mean([(by[i].values["settlement"] - t[i]["settlement"]) ** 2 for i in quiet])) < 0.02
+    assert math.isnan(by[13].values["top_level_after"]) and any("least depths" in n for n in by[13].notes)
     # the pit is found, and its depth within the 5 cm (here 0.09 against 0.13 m: the
     # deepest ring hugs a hollow frame's footprint, which a 0.5 m map samples coarsely)
     v = by[16].values

@@ -22,7 +22,8 @@ MEASURES: tuple[tuple[str, str, str], ...] = (
     ("dy", "m", "plan displacement north"),
     ("displacement", "m", "plan displacement"),
     ("rotation_deg", "deg", "turn about the vertical (clockwise), within the design's symmetry"),
-    ("settlement", "m", "the top went down by (least depth, registered; positive down)"),
+    ("settlement", "m", "the top went down by (its plane's highest point in the levelled soundings, "
+                        "else the least depth; registered; positive down)"),
     ("height_change", "m", "exposed height after minus before"),
     ("tilt_change_deg", "deg", "the top plane's tilt after minus before"),
     ("scour_depth", "m", "the seabed round the unit went down by (deepest ring)"),

@@ -24,6 +24,7 @@ from .piles import exposed_height, pile_change, pile_footprint, pile_outline
 from .register import IDENTITY, Registration, register
 from .results import ChangeResult, ObjectChange
 from .tie import tie_to_objects
+from .tops import TopLevel, reef_tops
 
 __all__ = ["compare_surveys"]
 
@@ -101,7 +102,8 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     if isinstance(before, PileResult) and isinstance(after, PileResult):
         objects = _piles(before, after, reg, opt, diff, noise, (db, da))
     elif isinstance(before, ReefResult) and isinstance(after, ReefResult):
-        objects = _objects(before, after, reg, opt, diff, noise)
+        tops = (reef_tops(before.reefs, b_pts, before_fields), reef_tops(after.reefs, a_pts, after_fields))
+        objects = _objects(before, after, reg, opt, diff, noise, tops)
     report(1.0)
     params = {**opt.to_dict(), "registration_beams": beams, "before": _record(before),
               "after": _record(after),
@@ -301,8 +303,9 @@ def _without_objects(diff: Grid, before: Result, after: Result, reg: Registratio
 
 
 def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: ChangeOptions, diff: Grid,
-             noise: MapNoise) -> list[ObjectChange]:
-    """Every reef of either survey with its change, before ids first."""
+             noise: MapNoise, tops: tuple[list[TopLevel], list[TopLevel]]) -> list[ObjectChange]:
+    """Every reef of either survey with its change, before ids first (``tops``: each survey's
+    units' top levels, :func:`~mbinspect.change.tops.reef_tops`)."""
     bxy = np.array([[r.x, r.y] for r in before.reefs]).reshape(-1, 2)
     ax, ay = reg.to_before(np.array([r.x for r in after.reefs]), np.array([r.y for r in after.reefs]))
     axy = np.column_stack([ax, ay]).reshape(-1, 2)
@@ -320,7 +323,7 @@ def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: Chan
             outline = np.column_stack(reg.to_before(outline[:, 0], outline[:, 1]))
         values, detected, notes = reef_change(rb, ra, (float(ax[j]), float(ay[j])), outline, reg, opt,
                                               turn=turns.get(rb.design, 360.0), diff=diff,
-                                              noise=noise)
+                                              noise=noise, tops=(tops[0][i], tops[1][j]))
         out.append(ObjectChange(rb.id, ra.id, "changed" if detected else "unchanged", rb.x, rb.y,
                                 float(ax[j]), float(ay[j]), values, detected, notes))
     matched = set(pairs.values())

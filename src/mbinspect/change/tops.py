@@ -1,0 +1,130 @@
+"""A reef's top level read again from its survey's levelled soundings, for its settlement.
+
+Each survey's own result gives a reef's least depth: its shoalest reliable sounding, taken
+before the comparison levels each ping against the others of its line. A ping's heave or
+roll error then moves the least depth as a whole, and an extreme sounding is a noisy
+statistic. Two surveys of one field differ by 3.1 cm RMS in their least depths where the
+units did not move (the study of issue 29, two seeds); the plane through each unit's top
+(:func:`~mbinspect.reefs.tilt.top_plane`), fitted to the levelled soundings in its footprint
+and read at its highest sounded point, differs by 1.9 cm.
+
+The level's 1-sigma is the plane's at that point (pings and patches of the top as clusters)
+with what a tilted top adds: its highest edge is sounded to about one sounding spacing, so
+the edge's level is known to the slope times that spacing.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..geometry import points_in_polygon
+from ..noise import robust_sigma
+from ..reefs.results import Reef
+from ..reefs.tilt import top_plane
+from .grid import _group_medians
+
+__all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops"]
+
+#: The vertical noise (m) below which no top's soundings are taken to agree (a plane's
+#: tolerance is three of it).
+MIN_NOISE = 0.01
+
+
+TopLevel = tuple[float, float, str]
+
+
+#: Soundings the noise is read on, at most (every k-th).
+NOISE_SAMPLE = 400_000
+
+
+def sounding_noise(points: np.ndarray, cell: float = 0.5) -> float:
+    """The soundings' vertical 1-sigma: the robust spread about their cell's median (cells of
+    ``cell`` m holding four soundings or more), on at most :data:`NOISE_SAMPLE` of them.
+
+    >>> rng = np.random.default_rng(2)
+    >>> pts = np.column_stack([rng.uniform(0, 20, (50_000, 2)), rng.normal(-8.0, 0.03, 50_000)])
+    >>> round(sounding_noise(pts), 2)
+    0.03
+    """
+    pts = points[:: max(1, len(points) // NOISE_SAMPLE)]
+    key = np.floor(pts[:, :2] / cell).astype(np.int64) @ np.array([1_000_003, 1], np.int64)
+    med, n = _group_medians(pts[:, 2], key)
+    full = n >= 4
+    # a cell's own median leaves (n - 1) / n of each sounding's variance about it
+    return float(robust_sigma((pts[full, 2] - med[full]) * np.sqrt(n[full] / (n[full] - 1))))
+
+
+def by_x(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The soundings' order by x and their x in that order: each footprint's soundings are
+    then found without a pass over all of them."""
+    order = np.argsort(points[:, 0], kind="stable")
+    return order, points[order, 0]
+
+
+def top_level(points: np.ndarray, reef: Reef, *, ping: np.ndarray | None = None, noise: float = 0.02,
+              index: tuple[np.ndarray, np.ndarray] | None = None) -> TopLevel:
+    """A unit's top level (m, up), its 1-sigma and why it could not be read ("" when read).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        The survey's levelled soundings.
+    reef : Reef
+        The unit as its survey found it: its footprint ``outline``, its seabed and height
+        (the soundings above half its height are its top's).
+    ping : ndarray of int, shape (N,), optional
+        Each sounding's ping (pings are clusters of the plane's 1-sigma).
+    noise : float
+        The soundings' vertical 1-sigma (m).
+    index : (ndarray, ndarray), optional
+        :func:`by_x` of ``points`` (made here when not given).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(-1, 1, (600, 2))
+    >>> pts = np.column_stack([xy, -10.0 + rng.normal(0, 0.01, 600)])
+    >>> square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+    >>> reef = Reef(1, 0.0, 0.0, -11.0, -10.0, 1.0, 4.0, 2.0, 2.0, 0.0, 4.0, 4.0, 600, outline=square)
+    >>> z, sigma, why = top_level(pts, reef)
+    >>> round(z, 2), sigma < 0.005, why
+    (-10.0, True, '')
+    """
+    poly = np.asarray(reef.outline, np.float64).reshape(-1, 2)
+    if len(poly) < 3 or not (math.isfinite(reef.z_seabed) and math.isfinite(reef.height)):
+        return math.nan, math.nan, "no footprint"
+    order, xs = index if index is not None else by_x(points)
+    lo = int(np.searchsorted(xs, poly[:, 0].min(), side="left"))
+    hi = int(np.searchsorted(xs, poly[:, 0].max(), side="right"))
+    idx = order[lo:hi]
+    idx = idx[(points[idx, 1] >= poly[:, 1].min()) & (points[idx, 1] <= poly[:, 1].max())]
+    idx = idx[points_in_polygon(points[idx], poly)]
+    idx = idx[points[idx, 2] > reef.z_seabed + 0.5 * reef.height]
+    pts = points[idx]
+    noise = max(noise, MIN_NOISE)
+    coef, cov, why = top_plane(pts, noise, None if ping is None else np.asarray(ping)[idx])
+    if why:
+        return math.nan, math.nan, why
+    g = np.column_stack([np.ones(len(pts)), pts[:, :2] - pts[:, :2].mean(axis=0)])
+    on = np.abs(pts[:, 2] - g @ coef) <= max(3.0 * noise, 0.04)
+    g = g[on]
+    level = g @ coef
+    k = int(np.argmax(level))
+    spacing = math.sqrt(max(float(reef.area), 0.0) / max(len(pts), 1))
+    slope = math.hypot(coef[1], coef[2])
+    sigma = math.sqrt(max(float(g[k] @ cov @ g[k]), 0.0) + (slope * spacing) ** 2)
+    return float(level[k]), sigma, ""
+
+
+def reef_tops(reefs: tuple[Reef, ...] | list[Reef], points: np.ndarray, fields: Mapping[str, Any] | None
+              ) -> list[TopLevel]:
+    """Every unit's :func:`top_level` in one survey's levelled soundings."""
+    if not len(reefs):
+        return []
+    ping = None if not fields or "ping" not in fields else np.asarray(fields["ping"])
+    noise, index = sounding_noise(points), by_x(points)
+    return [top_level(points, r, ping=ping, noise=noise, index=index) for r in reefs]
