@@ -96,26 +96,34 @@ def _rms(values: Sequence[float]) -> float:
 PRIOR = 12
 
 
-def _z2(trials: list[Trial]) -> list[float]:
-    """Each spacing's squared error in its reported sigmas, over ``trials``."""
-    return [(s[2] / s[3]) ** 2 for t in trials for s in t.spacings if s[3] > 0 and math.isfinite(s[3])]
-
-
 def _calibration(trials: Sequence[Trial]) -> float:
-    """The factor from the 1-sigma the runs reported to their errors, tempered by :data:`PRIOR`."""
-    z2 = _z2(list(trials))
+    """The factor from the 1-sigma the runs reported to their errors (the RMS of each error in
+    its reported sigmas), tempered by :data:`PRIOR`."""
+    z2 = [(s[2] / s[3]) ** 2 for t in trials for s in t.spacings if s[3] > 0 and math.isfinite(s[3])]
     return math.sqrt((sum(z2) + PRIOR) / (len(z2) + PRIOR))
+
+
+def _per_spacing(trials: Sequence[Trial], pairs: list[tuple[int, int]], factor: float
+                 ) -> dict[tuple[int, int], tuple[float, float, float, int]]:
+    """Per spacing: its predicted 1-sigma (the RMS of the 1-sigma the runs reported, times
+    ``factor``; inf when a run did not measure it), that RMS, the RMS error and how many runs
+    measured it."""
+    rows_of: dict[tuple[int, int], list[tuple[float, float]]] = {ab: [] for ab in pairs}
+    for t in trials:
+        for s in t.spacings:
+            if (s[0], s[1]) in rows_of:
+                rows_of[(s[0], s[1])].append((s[2], s[3]))
+    out = {}
+    for ab, rows in rows_of.items():
+        reported, err = _rms([r[1] for r in rows]), _rms([r[0] for r in rows])
+        whole = len(rows) == len(trials) and rows
+        out[ab] = (reported * factor if whole else math.inf, reported, err, len(rows))
+    return out
 
 
 def _worst(trials: Sequence[Trial], pairs: list[tuple[int, int]]) -> float:
     """The worst spacing's predicted 1-sigma from ``trials`` (inf when one went unmeasured)."""
-    factor, worst = _calibration(trials), 0.0
-    for ab in pairs:
-        rows = [s[3] for t in trials for s in t.spacings if (s[0], s[1]) == ab]
-        if len(rows) < len(trials) or not rows:
-            return math.inf
-        worst = max(worst, _rms(rows) * factor)
-    return worst
+    return max((v[0] for v in _per_spacing(trials, pairs, _calibration(trials)).values()), default=0.0)
 
 
 def _scatter(trials: list[Trial], piles: tuple[DesignPile, ...]) -> float:
@@ -140,14 +148,9 @@ def _predict(layout: Layout, trials: list[Trial], piles: tuple[DesignPile, ...],
     errors a survey of these lines will make. A spacing some run did not measure is
     unmeasured (inf)."""
     by_id = {p.id: p for p in piles}
-    rows_of = {ab: [s for t in trials for s in t.spacings if (s[0], s[1]) == ab] for ab in pairs_of(piles)}
     factor = _calibration(trials)
-    spacings = []
-    for (a, b), rows in rows_of.items():
-        reported, err = _rms([r[3] for r in rows]), _rms([r[2] for r in rows])
-        sigma = reported * factor if len(rows) == len(trials) and rows else math.inf
-        spacings.append(PredictedSpacing(a, b, math.hypot(by_id[a].x - by_id[b].x, by_id[a].y - by_id[b].y),
-                                         sigma, reported, err, len(rows)))
+    spacings = [PredictedSpacing(a, b, math.hypot(by_id[a].x - by_id[b].x, by_id[a].y - by_id[b].y), *v)
+                for (a, b), v in _per_spacing(trials, pairs_of(piles), factor).items()]
     tops = []
     for p in piles:
         levels = [r for t in trials for r in t.tops if r[0] == p.id]
