@@ -202,6 +202,12 @@ def test_the_cli_compares_a_tiled_laz_result_with_an_ascii_one(cli_pair, capsys)
     d = json.loads((root / "ch" / "change.json").read_text())
     assert d["change"] == "reefs" and d["counts"]["removed"] >= 1 and d["counts"]["new"] >= 1
     assert abs(d["registration"]["dx"] - SHIFT[0]) < 0.15
+    # the tiled LAZ's pings and the ASCII's none: the units that stayed refine the plan shift
+    # and each top is read again in both, whatever the format
+    assert d["registration"]["ties"] >= 10 and "kept their place" in printed
+    both = [o for o in d["objects"] if o["status"] in ("changed", "unchanged")]
+    read = [o for o in both if o.get("top_level_before") is not None and o.get("top_level_after") is not None]
+    assert len(read) >= 0.8 * len(both)
     header = (root / "ch" / "change.csv").read_text().splitlines()[0].split(",")
     assert header[:3] == ["id_before", "id_after", "status"] and "settlement_lod95" in header
     geo = json.loads((root / "ch" / "change.geojson").read_text())
