@@ -4,7 +4,8 @@ sailed on other lines with other noise and a datum and position offset; each sur
 extracted, then compared (:func:`mbinspect.change.compare_surveys`) against the true change.
 
 Run: ``python benchmarks/study_change.py [--seeds 10] [--configs default,...] [--workers 2]``;
-``--real [--placements 3]``: reefs injected into the real files instead (:func:`_real`).
+``--real [--placements 3] [--ring 6]``: reefs injected into the real files instead (:func:`_real`;
+``--ring``: unchanged units round the four changed ones, where the file covers them).
 
 Rows per configuration: the registration's error against the offset applied in plan and,
 in height, against the offset the two surveys realise (the one applied plus the difference
@@ -192,13 +193,38 @@ REAL_CHANGES = {0: ("move", {"dx": 0.8, "turn": 15.0}), 1: ("settle", {"burial":
                 2: ("overturn", {"orientation": "on its side"}), 3: ("none", {})}
 
 
-def _real(placements: int) -> None:
+def _ring(cloud, square: list, n: int, rng: np.random.Generator) -> list:
+    """``n`` more units, unchanged, on a ring round the square (radius 2.2 times its half
+    diagonal, at least 8 m), those whose place the soundings cover (within the 2-98 %
+    extents): enough units that stay for the registration to be refined on them."""
+    from mbinspect.inject import InjectedReef
+    from study_inject import REEFS
+
+    if n == 0 or len(square) < 4:
+        return []
+    centre = np.mean([[u.x, u.y] for u in square], axis=0)
+    radius = max(8.0, 2.2 * max(math.hypot(u.x - centre[0], u.y - centre[1]) for u in square))
+    lo, hi = np.percentile(cloud.xyz[:, :2], [2, 98], axis=0)
+    turn = rng.uniform(0, 2 * math.pi)
+    out = []
+    for j in range(n):
+        a = turn + 2 * math.pi * j / n
+        x, y = centre[0] + radius * math.sin(a), centre[1] + radius * math.cos(a)
+        if lo[0] + 2 < x < hi[0] - 2 and lo[1] + 2 < y < hi[1] - 2:
+            kind, scale = REEFS[j % len(REEFS)]
+            out.append(InjectedReef(len(square) + len(out) + 1, x, y, kind,
+                                    bearing_deg=float(rng.uniform(0, 360)), scale=scale))
+    return out
+
+
+def _real(placements: int, ring: int = 6) -> None:
     """Reefs injected into each real file that holds a square of them, the file's pings
     split in two (even and odd): two surveys of one place with the real seabed and the real
     noise, each epoch's noise from other pings of the same lines. No public pair of real
     surveys of one place holds objects; this is the file against itself with its noise
     resampled by the pings. The second epoch's units changed as :data:`REAL_CHANGES` says,
-    and its soundings offset by (0.2, -0.1, 0.08) m."""
+    and its soundings offset by (0.2, -0.1, 0.08) m; ``ring`` more units round them, unchanged
+    (:func:`_ring`, where the file covers them)."""
     from dataclasses import replace
 
     from mbinspect.errors import MBInspectError
@@ -219,6 +245,7 @@ def _real(placements: int) -> None:
         regs, errs = [], []
         for k in range(placements):
             square = _reef_square(cx, cy, side, np.random.default_rng(k))
+            square += _ring(cloud, square, ring, np.random.default_rng(100 + k))
             changed = []
             for i, u in enumerate(square):
                 what, how = REAL_CHANGES.get(i, ("none", {}))
@@ -252,7 +279,7 @@ def _real(placements: int) -> None:
                 tally["registration: " + g.note[:50]] += 1
                 continue
             regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dz,
-                         g.sigma_dy))
+                         g.sigma_dy, g.ties))
             truth_b = ib.truth["reefs"]
             for i in range(len(square)):
                 what = REAL_CHANGES.get(i, ("none", {}))[0]
@@ -274,7 +301,7 @@ def _real(placements: int) -> None:
                     tally[f"{what}: n"] += 1
                 if what == "move" and o.status == "changed":
                     errs.append(o.values["displacement"] - 0.8)
-        r = np.array(regs).reshape(-1, 6)
+        r = np.array(regs).reshape(-1, 7)
         rows.append([name[:34], f"{len(regs)}/{placements} ({len(cloud.xyz) // 1000} k)",
                      f"{tally['move: found']}/{tally['move: n']}",
                      f"{tally['settle: found']}/{tally['settle: n']}",
@@ -287,12 +314,13 @@ def _real(placements: int) -> None:
                      f"{1000 * np.median(r[:, 3]):.0f}" if len(r) else "-",
                      f"{1000 * np.median(r[:, 4]):.0f}" if len(r) else "-",
                      f"{1000 * math.sqrt(np.mean(np.square(errs))):.0f}" if errs else "-",
+                     f"{np.median(r[:, 6]):.0f} of {tally['units'] / max(len(r), 1):.0f}" if len(r) else "-",
                      "; ".join(f"{k} ×{v}" for k, v in tally.items()
                                if k.startswith(("why", "registration", "not found")))])
     print(table(["file (pings split even/odd)", "placements run", "moved 0.8 m found", "settled 0.25 m",
                  "overturned", "unchanged called changed", "plan reg err RMS mm", "dz err RMS mm",
                  "dx, dy within 2σ", "median σ dx mm", "median σ dz mm", "displacement err RMS mm",
-                 "left out"], rows))
+                 "units the shift was refined on", "left out"], rows))
 
 
 def main() -> None:
@@ -303,9 +331,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(add_help=False)
     ap.add_argument("--real", action="store_true")
     ap.add_argument("--placements", type=int, default=3)
+    ap.add_argument("--ring", type=int, default=6)
     known = own_flags(ap)
     if known.real:
-        _real(known.placements)
+        _real(known.placements, known.ring)
         return
     chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
     regs, dets, errs = [], [], []
