@@ -136,8 +136,9 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
     total: Counter[str] = Counter()
     false_calls, unchanged, right, wrong = 0, 0, 0, 0
     why: Counter[str] = Counter()
-    errs: dict[str, list[tuple[float, float]]] = {k: [] for k in ("displacement", "settlement", "scour_depth",
-                                                                   "rotation_deg", "tilt_change_deg")}
+    measures = ("displacement", "settlement", "height_change", "scour_depth", "rotation_deg",
+                "tilt_change_deg")
+    errs: dict[str, list[tuple[float, float]]] = {k: [] for k in measures}
     for r in rs:
         for k in r["kinds"].values():
             total[k] += 1
@@ -166,9 +167,11 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
                 v, lod = row["values"].get(m), row["values"].get(m + "_lod95")
                 tilt = t.get("tilt_after", 0) - t.get("tilt_before", 0)
                 tv = t.get(m, 0.0 if m != "tilt_change_deg" else tilt)
+                if m == "height_change":
+                    tv = t.get("height_after", math.nan) - t.get("height_before", math.nan)
                 if m == "scour_depth" and k not in (None, "scour", "faint scour"):
                     continue
-                if None not in (v, lod, tv) and math.isfinite(v) and math.isfinite(lod):
+                if None not in (v, lod, tv) and math.isfinite(v) and math.isfinite(lod) and math.isfinite(tv):
                     errs[m].append((v - tv, lod))
     reg_row = [name, str(len(rs)), *(f"{1000 * math.sqrt(np.mean(err[:, k] ** 2)):.0f}" for k in range(3)),
                *(f"{100 * within[:, k].mean():.0f} %" for k in range(3)),
