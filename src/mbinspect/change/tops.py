@@ -6,7 +6,10 @@ roll error then moves the least depth as a whole, and an extreme sounding is a n
 statistic. Two surveys of one field differ by 3.1 cm RMS in their least depths where the
 units did not move (the study of issue 29, two seeds); the plane through each unit's top
 (:func:`~mbinspect.reefs.tilt.top_plane`), fitted to the levelled soundings in its footprint
-and read at its highest sounded point, differs by 1.9 cm.
+and read at its highest sounded point, differs by 1.9 cm. A top whose slope is within three
+times its 1-sigma of level is read at the soundings' centre instead (the highest point of a
+level plane is wherever its noise tilts it, a few millimetres high), its 1-sigma taking the
+slope it may still have over the top's reach.
 
 The level's 1-sigma is the plane's at that point (pings and patches of the top as clusters)
 with what a tilted top adds: its highest edge is sounded to about one sounding spacing, so
@@ -32,6 +35,12 @@ __all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops"]
 #: The vertical noise (m) below which no top's soundings are taken to agree (a plane's
 #: tolerance is three of it).
 MIN_NOISE = 0.01
+
+#: A top whose slope is within this many of its 1-sigma of level is read at its centre.
+LEVEL = 3.0
+
+#: The noise taken where the soundings are too sparse to measure theirs (no cell of four).
+DEFAULT_NOISE = 0.02
 
 
 TopLevel = tuple[float, float, str]
@@ -105,17 +114,22 @@ def top_level(points: np.ndarray, reef: Reef, *, ping: np.ndarray | None = None,
     idx = idx[points_in_polygon(points[idx], poly)]
     idx = idx[points[idx, 2] > reef.z_seabed + 0.5 * reef.height]
     pts = points[idx]
-    noise = max(noise, MIN_NOISE)
+    noise = max(noise, MIN_NOISE) if math.isfinite(noise) else DEFAULT_NOISE  # too sparse to measure it
     coef, cov, why = top_plane(pts, noise, None if ping is None else np.asarray(ping)[idx])
     if why:
         return math.nan, math.nan, why
+    slope = math.hypot(coef[1], coef[2])
+    slope_sigma = math.sqrt(max(float(cov[1, 1] + cov[2, 2]), 0.0) / 2)
     g = np.column_stack([np.ones(len(pts)), pts[:, :2] - pts[:, :2].mean(axis=0)])
     on = np.abs(pts[:, 2] - g @ coef) <= max(3.0 * noise, 0.04)
     g = g[on]
+    if slope <= LEVEL * slope_sigma:  # a level top: its level where the plane is best known, the
+        # slope it may still have over the top's reach in its 1-sigma
+        reach = float(np.hypot(g[:, 1], g[:, 2]).max()) if len(g) else 0.0
+        return float(coef[0]), math.sqrt(max(float(cov[0, 0]), 0.0) + (slope * reach) ** 2), ""
     level = g @ coef
     k = int(np.argmax(level))
     spacing = math.sqrt(max(float(reef.area), 0.0) / max(len(pts), 1))
-    slope = math.hypot(coef[1], coef[2])
     sigma = math.sqrt(max(float(g[k] @ cov @ g[k]), 0.0) + (slope * spacing) ** 2)
     return float(level[k]), sigma, ""
 

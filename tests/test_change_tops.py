@@ -1,0 +1,53 @@
+"""A reef's top level read again for its settlement (issue 29): a tilted top's high edge, its
+1-sigma against the error over many draws, and what cannot be read said."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mbinspect.change.tops import sounding_noise, top_level
+from mbinspect.reefs.results import Reef
+
+SQUARE = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
+
+
+def _unit(outline=SQUARE) -> Reef:
+    return Reef(1, 0.0, 0.0, -11.0, -10.0, 1.0, 4.0, 2.0, 2.0, 0.0, 4.0, 4.0, 600, outline=outline)
+
+
+def _top(rng: np.random.Generator, tilt_deg: float, n: int = 500, noise: float = 0.02) -> np.ndarray:
+    """A 2 m square top at -10 m at its high edge, leaning ``tilt_deg`` down to the east,
+    sounded ``n`` times, with the seabed round it."""
+    xy = rng.uniform(-1, 1, (n, 2))
+    z = -10.0 - math.tan(math.radians(tilt_deg)) * (xy[:, 0] + 1.0) + rng.normal(0, noise, n)
+    ground = np.column_stack([rng.uniform(-3, 3, (n, 2)), rng.normal(-11.0, noise, n)])
+    ground = ground[np.max(np.abs(ground[:, :2]), axis=1) > 1.05]
+    return np.vstack([np.column_stack([xy, z]), ground])
+
+
+def test_the_top_level_is_its_high_edge_and_its_sigma_covers_the_error():
+    rng = np.random.default_rng(3)
+    z = []
+    for tilt in (0.0, 0.3, 5.0, 10.0):
+        for _ in range(40):
+            pts = _top(rng, tilt)
+            level, sigma, why = top_level(pts, _unit(), noise=0.02)
+            assert not why
+            z.append((level + 10.0) / sigma)
+    z = np.abs(np.array(z))
+    # the high edge is found to its 1-sigma: about 95 % within 2 sigma over level and leaning tops
+    assert np.mean(z <= 2) >= 0.9, np.mean(z <= 2)
+
+
+def test_the_soundings_noise_is_measured_and_a_sparse_top_is_said():
+    rng = np.random.default_rng(4)
+    pts = _top(rng, 0.0, n=4000, noise=0.03)
+    assert 0.025 < sounding_noise(pts) < 0.035
+    # ten soundings in a row: no cell holds four, no plane holds the top
+    line = np.column_stack([np.linspace(-0.9, 0.9, 10), np.zeros(10), np.full(10, -10.0)])
+    assert math.isnan(sounding_noise(line))
+    level, sigma, why = top_level(line, _unit(), noise=math.nan)
+    assert math.isnan(level) and math.isnan(sigma) and "too few soundings" in why
+    assert top_level(pts, _unit(outline=()))[2] == "no footprint"
