@@ -155,6 +155,7 @@ def _registered(b_pts: np.ndarray, a_pts: np.ndarray, inner: tuple[np.ndarray, n
 
 
 def _positions(r: Result) -> np.ndarray:
+    """The plan positions (n, 2) of a result's reefs or piles."""
     items = r.piles if isinstance(r, PileResult) else r.reefs
     return np.array([[o.x, o.y] for o in items], np.float64).reshape(-1, 2)
 
@@ -306,7 +307,7 @@ def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: Chan
              noise: MapNoise, tops: tuple[list[TopLevel], list[TopLevel]]) -> list[ObjectChange]:
     """Every reef of either survey with its change, before ids first (``tops``: each survey's
     units' top levels, :func:`~mbinspect.change.tops.reef_tops`)."""
-    bxy = np.array([[r.x, r.y] for r in before.reefs]).reshape(-1, 2)
+    bxy = _positions(before)
     ax, ay = reg.to_before(np.array([r.x for r in after.reefs]), np.array([r.y for r in after.reefs]))
     axy = np.column_stack([ax, ay]).reshape(-1, 2)
     pairs = dict(match_objects(bxy, axy, max_move=opt.max_move))
@@ -336,7 +337,7 @@ def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: Chan
 def _piles(before: PileResult, after: PileResult, reg: Registration, opt: ChangeOptions, diff: Grid,
            noise: MapNoise, seabeds: tuple[Grid, Grid]) -> list[ObjectChange]:
     """Every pile of either survey with its change, before ids first."""
-    bxy = np.array([[p.x, p.y] for p in before.piles]).reshape(-1, 2)
+    bxy = _positions(before)
     ax, ay = reg.to_before(np.array([p.x for p in after.piles]), np.array([p.y for p in after.piles]))
     pairs = dict(match_objects(bxy, np.column_stack([ax, ay]).reshape(-1, 2), max_move=opt.max_move))
     out = []

@@ -63,7 +63,8 @@ def sounding_noise(points: np.ndarray, cell: float = 0.5) -> float:
     key = np.floor(pts[:, :2] / cell).astype(np.int64) @ np.array([1_000_003, 1], np.int64)
     med, n = _group_medians(pts[:, 2], key)
     full = n >= 4
-    # a cell's own median leaves (n - 1) / n of each sounding's variance about it
+    # a cell's own median takes part of each sounding's spread about it: restored as for a
+    # mean's (n - 1) / n, which is close for four soundings or more
     return float(robust_sigma((pts[full, 2] - med[full]) * np.sqrt(n[full] / (n[full] - 1))))
 
 
