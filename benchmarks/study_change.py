@@ -191,6 +191,24 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[str], list[list
     return reg_row, det_row, err_rows
 
 
+def _height_by_kind(name: str, rs: list[dict]) -> list[list[str]]:
+    """The exposed height change's errors per kind of change (the unchanged have no truth of it)."""
+    errs: dict[str, list[tuple[float, float]]] = {}
+    for r in rs:
+        for row in r["rows"]:
+            if row["ib"] is None or row["ib"] != row["ia"]:
+                continue
+            t, v = r["true"].get(row["ib"], {}), row["values"]
+            tv = t.get("height_after", math.nan) - t.get("height_before", math.nan)
+            val, lod = v.get("height_change"), v.get("height_change_lod95")
+            if None not in (val, lod) and all(map(math.isfinite, (val, lod, tv))):
+                errs.setdefault(r["kinds"].get(row["ib"]) or "none", []).append((val - tv, lod))
+    return [[name, k, str(len(e)), f"{math.sqrt(np.mean(np.square(np.array(e)[:, 0]))):.3f}",
+             f"{np.abs(np.array(e)[:, 0]).max():.3f}",
+             f"{100 * np.mean(np.abs(np.array(e)[:, 0]) <= np.array(e)[:, 1]):.0f} %"]
+            for k, e in sorted(errs.items())]
+
+
 #: The changes made to the injected square on a real background: unit index -> (what, InjectedReef fields).
 REAL_CHANGES = {0: ("move", {"dx": 0.8, "turn": 15.0}), 1: ("settle", {"burial": 0.25}),
                 2: ("overturn", {"orientation": "on its side"}), 3: ("none", {})}
@@ -340,13 +358,14 @@ def main() -> None:
         _real(known.placements, known.ring)
         return
     chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
-    regs, dets, errs = [], [], []
+    regs, dets, errs, heights = [], [], [], []
     for name in chosen:
         rs = [r for r in results if r["config"] == name]
         a, b, c = _summary(name, rs)
         regs.append(a)
         dets.append(b)
         errs += c
+        heights += _height_by_kind(name, rs)
     print(table(["config", "seeds", "dx err RMS mm", "dy", "dz", "dx within 2σ", "dy", "dz", "median σ dx mm",
                  "dy", "dz"], regs))
     print()
@@ -355,6 +374,8 @@ def main() -> None:
                 dets))
     print()
     print(table(["config", "measure", "n", "error RMS", "max", "within LoD95", "median LoD95"], errs))
+    print()
+    print(table(["config", "height change by kind", "n", "error RMS", "max", "within LoD95"], heights))
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from mbinspect.change.tops import sounding_noise, top_level
 from mbinspect.reefs.results import Reef
@@ -51,3 +52,25 @@ def test_the_soundings_noise_is_measured_and_a_sparse_top_is_said():
     level, sigma, why = top_level(line, _unit(), noise=math.nan)
     assert math.isnan(level) and math.isnan(sigma) and "too few soundings" in why
     assert top_level(pts, _unit(outline=()))[2] == "no footprint"
+
+
+def test_exposed_height_change_is_read_from_the_least_depths() -> None:
+    """A unit leaning after: its median top (the pipeline's height) drops 0.2 m, but its
+    highest point, which its least depth gives, stays: the height change is the least
+    depths' over each survey's seabed, not the median tops'."""
+    from dataclasses import replace
+
+    from mbinspect.change.measure import _levels
+    from mbinspect.change.register import IDENTITY
+
+    before = replace(_unit(), least={"least_depth": 10.0, "least_depth_tvu95_relative": 0.03})
+    after = replace(before, z_top=-10.2, height=0.8,
+                    least={"least_depth": 10.01, "least_depth_tvu95_relative": 0.03})
+    out = _levels(before, after, IDENTITY, [])
+    assert out["height_before"] == pytest.approx(1.0)
+    assert out["height_after"] == pytest.approx(0.99)
+    assert out["height_change"] == pytest.approx(-0.01)
+    assert abs(out["height_change"]) < out["height_change_lod95"]  # no detectable change
+    # without least depths, the pipeline's heights are what is left
+    bare = _levels(replace(before, least={}), replace(after, least={}), IDENTITY, [])
+    assert bare["height_change"] == pytest.approx(-0.2)

@@ -5,8 +5,9 @@ registration's.
 Positions come from the design fit (or the footprint) of each survey, known to
 ``position_sigma`` each; the top's settlement from the plane through its top in each
 survey's levelled soundings (:mod:`.tops`; else from the least depths and their TVU), the
-exposed height from the least depths; the tilt from each top plane's 1-sigma; scour from the registered
-difference map round the unit, against the seabed just beyond ``scour_reach``.
+exposed height from the least depths over each survey's seabed; the tilt from each top
+plane's 1-sigma; scour from the registered difference map round the unit, against the seabed
+just beyond ``scour_reach``.
 """
 
 from __future__ import annotations
@@ -142,7 +143,7 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
     # each survey's own line levels are what the vertical registration measures: a survey of
     # one line (no level of its own) is compared by its least depths' noise
     tb, ta = (_num(d.get("least_depth_tvu95_relative", d.get("least_depth_tvu95"))) for d in (lb, la))
-    out: dict[str, Any] = {"height_before": b.height, "height_after": a.height}
+    out: dict[str, Any] = {}
     sz = reg.sigma_dz if math.isfinite(reg.sigma_dz) else math.nan
     (zb, sb, why_b), (za, sa, why_a) = tops or ((math.nan, math.nan, "not read"),) * 2
     if b.overturned or a.overturned:  # the plane through a unit on its side is a face, not its top
@@ -167,9 +168,19 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
         out["settlement_lod95"] = math.nan
     if not math.isfinite(out["settlement_lod95"]):
         notes.append("settlement: the least depths' TVU or the vertical registration is unknown")
-    out["height_change"] = a.height - b.height
+    # exposed heights from the least depths (the top's highest point the soundings support,
+    # as its bound is): a median top reads a leaning unit's top low
+    hb, ha = _exposed(b, db), _exposed(a, da)
+    out["height_before"], out["height_after"] = hb, ha
+    out["height_change"] = ha - hb
     out["height_change_lod95"] = math.sqrt(tb**2 + ta**2)
     return out
+
+
+def _exposed(r: Reef, depth: float) -> float:
+    """A unit's exposed height: its least depth's top above its seabed, else the pipeline's
+    height (a median top)."""
+    return -depth - r.z_seabed if math.isfinite(depth) and math.isfinite(r.z_seabed) else r.height
 
 
 def _tilts(b: Reef, a: Reef, notes: list[str]) -> dict[str, Any]:
