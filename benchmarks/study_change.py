@@ -209,6 +209,15 @@ def _height_by_kind(name: str, rs: list[dict]) -> list[list[str]]:
             for k, e in sorted(errs.items())]
 
 
+def _height_cell(heights: list[tuple[float, float]]) -> str:
+    """The height change's errors: RMS and max (mm) and the share within the LoD95."""
+    if not heights:
+        return "-"
+    e = np.array(heights)
+    return (f"{1000 * math.sqrt(np.mean(e[:, 0] ** 2)):.0f} / {1000 * np.abs(e[:, 0]).max():.0f}, "
+            f"{100 * np.mean(np.abs(e[:, 0]) <= e[:, 1]):.0f} %")
+
+
 #: The changes made to the injected square on a real background: unit index -> (what, InjectedReef fields).
 REAL_CHANGES = {0: ("move", {"dx": 0.8, "turn": 15.0}), 1: ("settle", {"burial": 0.25}),
                 2: ("overturn", {"orientation": "on its side"}), 3: ("none", {})}
@@ -263,7 +272,7 @@ def _real(placements: int, ring: int = 6) -> None:
         halves = [PointCloud(cloud.xyz[m], {k: np.asarray(v)[m] for k, v in cloud.fields.items()},
                              crs=cloud.crs) for m in (even, ~even)]
         tally: Counter[str] = Counter()
-        regs, errs = [], []
+        regs, errs, heights = [], [], []
         for k in range(placements):
             square = _reef_square(cx, cy, side, np.random.default_rng(k))
             square += _ring(cloud, square, ring, np.random.default_rng(100 + k))
@@ -322,6 +331,9 @@ def _real(placements: int, ring: int = 6) -> None:
                     tally[f"{what}: n"] += 1
                 if what == "move" and o.status == "changed":
                     errs.append(o.values["displacement"] - 0.8)
+                if what in ("none", "settle") and o.status in ("changed", "unchanged"):
+                    true_change = -REAL_CHANGES[1][1]["burial"] if what == "settle" else 0.0
+                    heights.append((o.values["height_change"] - true_change, o.values["height_change_lod95"]))
         r = np.array(regs).reshape(-1, 7)
         rows.append([name[:34], f"{len(regs)}/{placements} ({len(cloud.xyz) // 1000} k)",
                      f"{tally['move: found']}/{tally['move: n']}",
@@ -335,12 +347,14 @@ def _real(placements: int, ring: int = 6) -> None:
                      f"{1000 * np.median(r[:, 3]):.0f}" if len(r) else "-",
                      f"{1000 * np.median(r[:, 4]):.0f}" if len(r) else "-",
                      f"{1000 * math.sqrt(np.mean(np.square(errs))):.0f}" if errs else "-",
+                     _height_cell(heights),
                      f"{np.median(r[:, 6]):.0f} of {tally['units'] / max(len(r), 1):.0f}" if len(r) else "-",
                      "; ".join(f"{k} ×{v}" for k, v in tally.items()
                                if k.startswith(("why", "registration", "not found")))])
     print(table(["file (pings split even/odd)", "placements run", "moved 0.8 m found", "settled 0.25 m",
                  "overturned", "unchanged called changed", "plan reg err RMS mm", "dz err RMS mm",
                  "dx, dy within 2σ", "median σ dx mm", "median σ dz mm", "displacement err RMS mm",
+                 "height change err RMS / max mm, within LoD95 (unchanged, settled)",
                  "units the shift was refined on", "left out"], rows))
 
 

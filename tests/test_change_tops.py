@@ -71,6 +71,10 @@ def test_exposed_height_change_is_read_from_the_least_depths() -> None:
     assert out["height_after"] == pytest.approx(0.99)
     assert out["height_change"] == pytest.approx(-0.01)
     assert abs(out["height_change"]) < out["height_change_lod95"]  # no detectable change
-    # without least depths, the pipeline's heights are what is left
+    # the tops' levels, where both were read, as the settlement reads them
+    read = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, ""), (-10.02, 0.01, "")))
+    assert read["height_change"] == pytest.approx(-0.02)
+    assert read["settlement"] == pytest.approx(0.02)
+    # without least depths or tops, the pipeline's heights are what is left
     bare = _levels(replace(before, least={}), replace(after, least={}), IDENTITY, [])
     assert bare["height_change"] == pytest.approx(-0.2)

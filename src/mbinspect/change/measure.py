@@ -5,9 +5,9 @@ registration's.
 Positions come from the design fit (or the footprint) of each survey, known to
 ``position_sigma`` each; the top's settlement from the plane through its top in each
 survey's levelled soundings (:mod:`.tops`; else from the least depths and their TVU), the
-exposed height from the least depths over each survey's seabed; the tilt from each top
-plane's 1-sigma; scour from the registered difference map round the unit, against the seabed
-just beyond ``scour_reach``.
+exposed height from those tops (else the least depths) over each survey's seabed; the tilt
+from each top plane's 1-sigma; scour from the registered difference map round the unit,
+against the seabed just beyond ``scour_reach``.
 """
 
 from __future__ import annotations
@@ -168,9 +168,13 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
         out["settlement_lod95"] = math.nan
     if not math.isfinite(out["settlement_lod95"]):
         notes.append("settlement: the least depths' TVU or the vertical registration is unknown")
-    # exposed heights from the least depths (the top's highest point the soundings support,
-    # as its bound is): a median top reads a leaning unit's top low
-    hb, ha = _exposed(b, db), _exposed(a, da)
+    # exposed heights from the tops as the settlement reads them (a leaning top at its high
+    # edge: a median top reads it low, by 8 cm RMS over tilted units), else the least depths
+    # (the highest point the soundings support, as its bound is), over each survey's seabed
+    if math.isfinite(zb) and math.isfinite(za) and math.isfinite(b.z_seabed) and math.isfinite(a.z_seabed):
+        hb, ha = zb - b.z_seabed, za - a.z_seabed
+    else:
+        hb, ha = _exposed(b, db), _exposed(a, da)
     out["height_before"], out["height_after"] = hb, ha
     out["height_change"] = ha - hb
     out["height_change_lod95"] = math.sqrt(tb**2 + ta**2)

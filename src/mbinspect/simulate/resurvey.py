@@ -24,13 +24,12 @@ import numpy as np
 from ..design_solids import ORIENTATIONS
 from ..errors import InputError, ParameterError
 from ..io import PointCloud
-from ..scour import grown
 from .pile_changes import changed_piles, check_pile_change, true_pile_changes
 from .run import Simulation, _setup
 from .scene import Reef, Scene, reef_boxes
 from .sonar import Line, Survey
 from .survey import survey
-from .truth import reef_truth, scene_truth
+from .truth import exposed_height, reef_truth, scene_truth
 
 __all__ = ["Change", "read_changes", "random_changes", "random_pile_changes", "resurvey", "scour_truth",
            "CHANGE_COLUMNS"]
@@ -309,47 +308,6 @@ def _changed_scene(scene: Scene, changes: Sequence[Change], opt: Any) -> Scene:
             reefs.append(Reef(c.id, c.kind, x, y, c.bearing_deg,
                               reef_boxes(c.kind, x, y, c.bearing_deg, z, scale), group=0))
     return dataclasses.replace(scene, seabed=seabed, reefs=tuple(reefs))
-
-
-#: How far beyond a unit's outline (m) the seabed round it is read for its exposed height:
-#: the middle of the ring of soundings the pipeline reads it from (six 0.1 m cells).
-ROUND = 0.3
-
-
-def exposed_height(truth: Mapping[str, Any], seabed: Any, origin: tuple[float, float]) -> float:
-    """A unit's true exposed height for change: its top above the seabed round it. The
-    undisturbed seabed at its centre, lowered by the pits' mean lowering on a ring
-    :data:`ROUND` m beyond its outline: the seabed under a unit is never sounded, so a pit
-    hidden beneath it (its exposed height as the scene's truth states it) is no change a
-    survey can see, while a pit round it is.
-
-    Examples
-    --------
-    >>> from mbinspect.simulate.scene import Seabed
-    >>> square = [[-1.5, -1.5], [1.5, -1.5], [1.5, 1.5], [-1.5, 1.5]]
-    >>> t = {"x": 0.0, "y": 0.0, "z_top": -18.0, "outline": square}
-    >>> hidden = Seabed(z0=-20.0, roughness=0.0, pits=((0.0, 0.0, 0.5, 1.0),))  # under the unit
-    >>> round(exposed_height(t, hidden, (0.0, 0.0)), 3)
-    2.0
-    >>> wide = Seabed(z0=-20.0, roughness=0.0, pits=((0.0, 0.0, 0.5, 6.0),))  # round it too
-    >>> 2.2 < exposed_height(t, wide, (0.0, 0.0)) < 2.5
-    True
-    """
-    ox, oy = origin
-    ring = _perimeter(grown(np.asarray(truth["outline"], np.float64) - (ox, oy), ROUND), 0.05)
-    plain = dataclasses.replace(seabed, pits=())
-    lowering = plain.elevation(ring[:, 0], ring[:, 1]) - seabed.elevation(ring[:, 0], ring[:, 1])
-    x, y = truth["x"] - ox, truth["y"] - oy
-    return float(truth["z_top"] - (float(plain.elevation(x, y)) - float(np.mean(lowering))))
-
-
-def _perimeter(poly: np.ndarray, step: float) -> np.ndarray:
-    """Points every ``step`` m or closer along a closed polygon's edges."""
-    ends = np.roll(poly, -1, axis=0)
-    parts = [a + (b - a) * t[:, None] for a, b in zip(poly, ends, strict=True)
-             for t in [np.arange(max(1, math.ceil(float(np.hypot(*(b - a))) / step))) /
-                       max(1, math.ceil(float(np.hypot(*(b - a))) / step))]]
-    return np.concatenate(parts)
 
 
 def _true_changes(before: Scene, after: Scene, changes: Sequence[Change], origin: tuple[float, float]

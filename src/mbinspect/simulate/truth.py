@@ -16,6 +16,7 @@ from ..geometry import (
     min_area_rectangle,
     polygon_area,
 )
+from ..scour import grown
 from ..solids import upper_surface
 from .scene import LABELS, Reef, Scene, Seabed, reef_gap
 from .sonar import Sonar
@@ -150,3 +151,44 @@ def rock_truth(scene: Scene) -> list[dict[str, Any]]:
                     "size": 2 * max(float(b.axes[:2].max()) + math.hypot(b.x - main.x, b.y - main.y)
                                     for b in lobes), "lobes": len(lobes)})
     return out
+
+
+#: How far beyond a unit's outline (m) the seabed round it is read for its exposed height:
+#: the middle of the ring of soundings the pipeline reads it from (six 0.1 m cells).
+ROUND = 0.3
+
+
+def exposed_height(truth: dict[str, Any], seabed: Seabed, origin: tuple[float, float]) -> float:
+    """A unit's true exposed height for change: its top above the seabed round it. The
+    undisturbed seabed at its centre, lowered by the pits' mean lowering on a ring
+    :data:`ROUND` m beyond its outline: the seabed under a unit is never sounded, so a pit
+    hidden beneath it (its exposed height as the scene's truth states it) is no change a
+    survey can see, while a pit round it is.
+
+    Examples
+    --------
+    >>> from mbinspect.simulate.scene import Seabed
+    >>> square = [[-1.5, -1.5], [1.5, -1.5], [1.5, 1.5], [-1.5, 1.5]]
+    >>> t = {"x": 0.0, "y": 0.0, "z_top": -18.0, "outline": square}
+    >>> hidden = Seabed(z0=-20.0, roughness=0.0, pits=((0.0, 0.0, 0.5, 1.0),))  # under the unit
+    >>> round(exposed_height(t, hidden, (0.0, 0.0)), 3)
+    2.0
+    >>> wide = Seabed(z0=-20.0, roughness=0.0, pits=((0.0, 0.0, 0.5, 6.0),))  # round it too
+    >>> 2.2 < exposed_height(t, wide, (0.0, 0.0)) < 2.5
+    True
+    """
+    ox, oy = origin
+    ring = _perimeter(grown(np.asarray(truth["outline"], np.float64) - (ox, oy), ROUND), 0.05)
+    plain = dataclasses.replace(seabed, pits=())
+    lowering = plain.elevation(ring[:, 0], ring[:, 1]) - seabed.elevation(ring[:, 0], ring[:, 1])
+    x, y = truth["x"] - ox, truth["y"] - oy
+    return float(truth["z_top"] - (float(plain.elevation(x, y)) - float(np.mean(lowering))))
+
+
+def _perimeter(poly: np.ndarray, step: float) -> np.ndarray:
+    """Points every ``step`` m or closer along a closed polygon's edges."""
+    ends = np.roll(poly, -1, axis=0)
+    parts = [a + (b - a) * t[:, None] for a, b in zip(poly, ends, strict=True)
+             for t in [np.arange(max(1, math.ceil(float(np.hypot(*(b - a))) / step))) /
+                       max(1, math.ceil(float(np.hypot(*(b - a))) / step))]]
+    return np.concatenate(parts)
