@@ -188,7 +188,6 @@ def exposed_height(truth: dict[str, Any], seabed: Seabed, origin: tuple[float, f
 def _perimeter(poly: np.ndarray, step: float) -> np.ndarray:
     """Points every ``step`` m or closer along a closed polygon's edges."""
     ends = np.roll(poly, -1, axis=0)
-    parts = [a + (b - a) * t[:, None] for a, b in zip(poly, ends, strict=True)
-             for t in [np.arange(max(1, math.ceil(float(np.hypot(*(b - a))) / step))) /
-                       max(1, math.ceil(float(np.hypot(*(b - a))) / step))]]
-    return np.concatenate(parts)
+    counts = np.maximum(1, np.ceil(np.hypot(*(ends - poly).T) / step)).astype(int)
+    return np.concatenate([a + (b - a) * (np.arange(n) / n)[:, None]
+                           for a, b, n in zip(poly, ends, counts, strict=True)])
