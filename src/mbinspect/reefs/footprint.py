@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import ndimage
 
-from ..grid import bounds, cell_index, grow
+from ..grid import bounds, cell_index, fill_holes, grow
 from ..neighbours import Cells, kth_distance, nearest_within
 
 __all__ = ["Raster", "nearest_label_raster", "label_parts", "TIE"]
@@ -129,7 +129,7 @@ def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float
         _wall_rule(points, is_reef, height, wall, _Cells(cj, ci, centres, rows, idx[k[rows]]),
                    _Raster(lo, cell, comp, r), close)
     closed = _bridged(reef & close, comp, bridge_c, cell)
-    filled = ndimage.binary_fill_holes(closed & reef) & reef
+    filled = fill_holes(closed & reef) & reef
     return filled, nearest, float(lo[0]), float(lo[1])
 
 
@@ -137,15 +137,20 @@ def _bridged(core: np.ndarray, comp: np.ndarray, bridge: np.ndarray, cell: float
     """The gaps between pings inside each candidate region closed over its ``bridge`` (m);
     closing does not grow outer edges."""
     closed = np.zeros_like(core)
+    disks: dict[int, np.ndarray] = {}
     for c, box in enumerate(ndimage.find_objects(comp), start=1):
         if box is None:
             continue
+        mine = comp[box] == c
+        sub = core[box] & mine
+        if not sub.any():  # nothing to close
+            continue
         rc = max(1, int(round(bridge[c] / cell)))
-        yy, xx = np.mgrid[-rc:rc + 1, -rc:rc + 1]
-        sub = np.pad(core[box] & (comp[box] == c), rc + 1)
-        disk = xx * xx + yy * yy <= rc * rc
-        done = ndimage.binary_closing(sub, structure=disk)[rc + 1:-rc - 1, rc + 1:-rc - 1]
-        closed[box] |= done & (comp[box] == c)
+        if rc not in disks:
+            yy, xx = np.mgrid[-rc:rc + 1, -rc:rc + 1]
+            disks[rc] = xx * xx + yy * yy <= rc * rc
+        done = ndimage.binary_closing(np.pad(sub, rc + 1), structure=disks[rc])
+        closed[box] |= done[rc + 1:-rc - 1, rc + 1:-rc - 1] & mine
     return closed
 
 
@@ -220,16 +225,34 @@ def _wall_rule(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, wall
         inside = inside[(ri_i[inside] >= x0) & (ri_i[inside] < x1)]
         hmax = np.zeros((y1 - y0, x1 - x0))
         np.maximum.at(hmax, (ri_j[inside] - y0, ri_i[inside] - x0), height[ri[inside]])
-        local = ndimage.maximum_filter(hmax, size=2 * w + 1)
-        gy, gx = np.gradient(ndimage.gaussian_filter(hmax, 2.0))
         s_src, a, b = src[mine], sj[mine] - y0, si[mine] - x0
-        on_wall = is_reef[s_src] & (height[s_src] < wall * local[a, b])
-        g = np.column_stack([gx[a, b], gy[a, b]])
+        on_wall = is_reef[s_src]
+        on_wall[on_wall] = height[s_src[on_wall]] < wall * _window_max(hmax, a[on_wall], b[on_wall], w)
+        if not on_wall.any():
+            continue
+        s_src, a, b, hit = s_src[on_wall], a[on_wall], b[on_wall], rows[mine][on_wall]
+        # the smoothed gradient over the wall cells and the Gaussian's reach (8 cells) and one
+        # more around them, no farther: the same values as over the whole window
+        wy0, wx0 = max(0, int(a.min()) - 10), max(0, int(b.min()) - 10)
+        gy, gx = np.gradient(ndimage.gaussian_filter(hmax[wy0:a.max() + 11, wx0:b.max() + 11], 2.0))
+        g = np.column_stack([gx[a - wy0, b - wx0], gy[a - wy0, b - wx0]])
         # on the reef's side: the cell centre's offset along the gradient, to TIE (a centre
         # square to the gradient from its sounding is on the edge in any frame)
-        inward = ((centres[rows[mine]] - points[s_src, :2]) * g).sum(axis=1) >= -TIE * np.hypot(*g.T)
-        hit = rows[mine][on_wall]
-        close[cj[hit], ci[hit]] = inward[on_wall]
+        inward = ((centres[hit] - points[s_src, :2]) * g).sum(axis=1) >= -TIE * np.hypot(*g.T)
+        close[cj[hit], ci[hit]] = inward
+
+
+def _window_max(grid: np.ndarray, a: np.ndarray, b: np.ndarray, w: int) -> np.ndarray:
+    """The largest value of ``grid`` within ``w`` cells of each cell (``a``, ``b``), the window
+    cut at the grid's edge: ``scipy.ndimage.maximum_filter(grid, 2 * w + 1)`` at those cells
+    alone (its mirrored edge adds no new value to a maximum)."""
+    if len(a) == 0:
+        return np.zeros(0)
+    ny, nx = grid.shape
+    off = np.arange(-w, w + 1)
+    rows = np.clip(a[:, None] + off, 0, ny - 1)[:, :, None]
+    cols = np.clip(b[:, None] + off, 0, nx - 1)[:, None, :]
+    return grid[rows, cols].reshape(len(a), -1).max(axis=1)
 
 
 #: Side (m) of the plan blocks over which the sounding spacing around reef candidates is
@@ -326,7 +349,7 @@ def label_parts(reef_mask: np.ndarray, *, cell: float, link: float
     lab, k = ndimage.label(joined, structure=np.ones((3, 3), bool))
     lab = np.where(reef_mask, lab, 0)
     ny, nx = lab.shape
-    flat = lab.ravel()
-    order = np.argsort(flat, kind="stable")
-    bounds = np.searchsorted(flat[order], np.arange(1, k + 2))
+    cells = np.flatnonzero(lab)  # the reef cells, in raster order within each part
+    order = cells[np.argsort(lab.ravel()[cells], kind="stable")]
+    bounds = np.searchsorted(lab.ravel()[order], np.arange(1, k + 2))
     return [order[bounds[i]:bounds[i + 1]] for i in range(k)], (ny, nx)

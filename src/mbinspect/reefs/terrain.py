@@ -10,7 +10,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..checks import check_points, positive, within
-from ..grid import cell_index, coverage
+from ..grid import cell_index, coverage, fill_holes
 from ..seabed import GridSurface, grid_seabed
 
 __all__ = ["TerrainMask", "rough_terrain", "Ground", "screen_terrain"]
@@ -123,7 +123,7 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     # too, near it (reef tops stand higher and drop out, rock relief does not)
     h = fine.height_above(pts) if height is None or surface is None else height
     near = (h >= -0.5) & (h <= BAND_TOP)
-    ci, cj = cell_index(pts[near], fine.x0, fine.y0, step)
+    ci, cj = (v[near] for v in cell_index(pts, fine.x0, fine.y0, step))  # no copy of the rows
     ok = (ci >= 0) & (ci < nx // f) & (cj >= 0) & (cj < ny // f)
     key = ci[ok] * (ny // f) + cj[ok]
     cnt = np.bincount(key, minlength=(nx // f) * (ny // f))
@@ -133,7 +133,7 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     bad = ((slope > max_slope_deg) | (rough > max_roughness)) & seen
     # one patch of rough ground has gentler cells inside and at its rim: close, fill, widen
     bad = ndimage.binary_closing(np.pad(bad, 3), structure=np.ones((5, 5), bool))[3:-3, 3:-3]
-    bad = ndimage.binary_fill_holes(bad)
+    bad = fill_holes(bad)
     lab, k = ndimage.label(bad)
     if k:
         sizes = ndimage.sum(bad, lab, index=np.arange(1, k + 1)) * step * step
@@ -223,6 +223,6 @@ def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_roug
         out = region.contains(points)
         report = {"n_removed": int(out.sum()), **region.to_dict()}
         if out.any():
-            kept, mask = points[~out], ~out
+            kept, mask = np.compress(~out, points, axis=0), ~out
             height = height[~out] if height is not None else None
     return Ground(kept, height, grid, region, cover, report, tuple(warnings), mask)
