@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from mbinspect.change.tops import sounding_noise, top_level
+from mbinspect.change.tops import ground_level, sounding_noise, top_level
 from mbinspect.reefs.results import Reef
 
 SQUARE = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
@@ -72,9 +72,41 @@ def test_exposed_height_change_is_read_from_the_least_depths() -> None:
     assert out["height_change"] == pytest.approx(-0.01)
     assert abs(out["height_change"]) < out["height_change_lod95"]  # no detectable change
     # the tops' levels, where both were read, as the settlement reads them
-    read = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, ""), (-10.02, 0.01, "")))
+    read = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, "", math.nan), (-10.02, 0.01, "", math.nan)))
     assert read["height_change"] == pytest.approx(-0.02)
     assert read["settlement"] == pytest.approx(0.02)
     # without least depths or tops, the pipeline's heights are what is left
     bare = _levels(replace(before, least={}), replace(after, least={}), IDENTITY, [])
     assert bare["height_change"] == pytest.approx(-0.2)
+
+
+def test_the_exposed_height_stands_on_the_seabed_round_the_unit_in_a_scour_pit() -> None:
+    """A pit scoured round a unit that did not move: the seabed round it drops, and a
+    quadratic through the pit's walls would bend on down under the unit. The plane through
+    the band just beyond the outline gives the exposed height over the pit round it: up by
+    the pit's depth there, not by what the bowl would reach at the centre."""
+    from dataclasses import replace
+
+    from mbinspect.change.measure import _levels
+    from mbinspect.change.register import IDENTITY
+
+    rng = np.random.default_rng(4)
+    xy = rng.uniform(-4, 4, (60_000, 2))
+    r = np.hypot(*xy.T)
+    pit = 0.4 * np.clip(1 - r / 3.5, 0, 1)  # a cone 0.4 m deep at the centre, 3.5 m wide
+    unit = np.abs(xy).max(axis=1) <= 1.0
+    level = np.where(unit, -10.0, -11.0 - pit) + rng.normal(0, 0.01, len(r))
+    pts = np.column_stack([xy, level])
+    round_it = ground_level(pts, _unit())
+    # the pit round the unit: no deeper than at its wall (1 m out), no shallower than half a
+    # metre beyond its corners, and not the bowl's bottom (0.4 m) under it
+    assert -11.0 - 0.4 * (1 - 1.0 / 3.5) < round_it < -11.0 - 0.4 * (1 - 1.45 * math.sqrt(2) / 3.5)
+    # the change's exposed heights: the tops over each survey's seabed round the unit
+    before = replace(_unit(), least={"least_depth": 10.0, "least_depth_tvu95_relative": 0.03})
+    after = replace(before, z_seabed=-11.4)  # the pipeline's seabed, bent into the bowl
+    out = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, "", -11.0), (-10.0, 0.01, "", round_it)))
+    assert out["height_change"] == pytest.approx(-11.0 - round_it)
+    # a band with too few soundings round the unit reads nothing, and the pipeline's seabed is used
+    assert math.isnan(ground_level(pts[unit], _unit()))
+    lone = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, "", -11.0), (-10.0, 0.01, "", math.nan)))
+    assert lone["height_change"] == pytest.approx(0.4)

@@ -5,7 +5,8 @@ registration's.
 Positions come from the design fit (or the footprint) of each survey, known to
 ``position_sigma`` each; the top's settlement from the plane through its top in each
 survey's levelled soundings (:mod:`.tops`; else from the least depths and their TVU), the
-exposed height from those tops (else the least depths) over each survey's seabed; the tilt
+exposed height from those tops (else the least depths) over each survey's seabed round the
+unit (a plane through the soundings just beyond its outline, :mod:`.tops`); the tilt
 from each top plane's 1-sigma; scour from the registered difference map round the unit,
 against the seabed just beyond ``scour_reach``.
 """
@@ -25,6 +26,7 @@ from ..scour import RING, grown, scour_rings
 from .grid import Grid
 from .options import ChangeOptions
 from .register import Registration
+from .tops import Levels
 
 __all__ = ["reef_change", "scour_of", "MapNoise", "CORRELATED_AREA", "Z95"]
 
@@ -90,7 +92,7 @@ def null_scour(diff: Grid, noise: MapNoise, radius: float, *, reach: float) -> t
 
 def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarray, reg: Registration,
                 opt: ChangeOptions, *, turn: float, diff: Grid | None, noise: MapNoise,
-                tops: tuple[tuple[float, float, str], tuple[float, float, str]] | None = None
+                tops: tuple[Levels, Levels] | None = None
                 ) -> tuple[dict[str, Any], tuple[str, ...], tuple[str, ...]]:
     """A matched reef's change: the values (:data:`~mbinspect.change.results.MEASURES` with
     their ``_lod95``, and the levels read), the measures detected, and notes.
@@ -99,7 +101,9 @@ def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarr
     before survey's frame; ``turn`` the design's symmetry (deg); ``diff`` the registered
     difference map (after minus before) and ``noise`` its noise; ``tops`` each survey's top
     level of the unit from its levelled soundings (:func:`~mbinspect.change.tops.top_level`),
-    which its settlement is read from where both were read (else from the least depths).
+    which its settlement is read from where both were read (else from the least depths), and
+    the seabed round it (:func:`~mbinspect.change.tops.ground_level`), which its exposed
+    height stands on.
     """
     v: dict[str, Any] = {"design": b.design or a.design}
     notes: list[str] = []
@@ -135,7 +139,7 @@ def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarr
 
 
 def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
-            tops: tuple[tuple[float, float, str], tuple[float, float, str]] | None = None) -> dict[str, Any]:
+            tops: tuple[Levels, Levels] | None = None) -> dict[str, Any]:
     """Settlement of the top (the top planes' highest points in the levelled soundings, else the
     least depths; registered) and the exposed heights."""
     lb, la = b.least or {}, a.least or {}
@@ -145,7 +149,7 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
     tb, ta = (_num(d.get("least_depth_tvu95_relative", d.get("least_depth_tvu95"))) for d in (lb, la))
     out: dict[str, Any] = {}
     sz = reg.sigma_dz if math.isfinite(reg.sigma_dz) else math.nan
-    (zb, sb, why_b), (za, sa, why_a) = tops or ((math.nan, math.nan, "not read"),) * 2
+    (zb, sb, why_b, gb), (za, sa, why_a, ga) = tops or ((math.nan, math.nan, "not read", math.nan),) * 2
     if b.overturned or a.overturned:  # the plane through a unit on its side is a face, not its top
         zb = za = math.nan
         why_b = "the unit is overturned in one survey"
@@ -171,20 +175,24 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
     # exposed heights from the tops as the settlement reads them (a leaning top at its high
     # edge: a median top reads it low, by 8 cm RMS over tilted units), else the least depths
     # (the highest point the soundings support, as its bound is), over each survey's seabed
-    if math.isfinite(zb) and math.isfinite(za) and math.isfinite(b.z_seabed) and math.isfinite(a.z_seabed):
-        hb, ha = zb - b.z_seabed, za - a.z_seabed
+    # over each survey's seabed round the unit (else the pipeline's seabed under it, which
+    # bends into a scour pit round it)
+    if not (math.isfinite(gb) and math.isfinite(ga)):
+        gb, ga = b.z_seabed, a.z_seabed
+    if math.isfinite(zb) and math.isfinite(za) and math.isfinite(gb) and math.isfinite(ga):
+        hb, ha = zb - gb, za - ga
     else:
-        hb, ha = _exposed(b, db), _exposed(a, da)
+        hb, ha = _exposed(db, gb, b.height), _exposed(da, ga, a.height)
     out["height_before"], out["height_after"] = hb, ha
     out["height_change"] = ha - hb
     out["height_change_lod95"] = math.sqrt(tb**2 + ta**2)
     return out
 
 
-def _exposed(r: Reef, depth: float) -> float:
-    """A unit's exposed height: its least depth's top above its seabed, else the pipeline's
-    height (a median top)."""
-    return -depth - r.z_seabed if math.isfinite(depth) and math.isfinite(r.z_seabed) else r.height
+def _exposed(depth: float, seabed: float, height: float) -> float:
+    """A unit's exposed height: its least depth's top above ``seabed``, else the pipeline's
+    ``height`` (a median top)."""
+    return -depth - seabed if math.isfinite(depth) and math.isfinite(seabed) else height
 
 
 def _tilts(b: Reef, a: Reef, notes: list[str]) -> dict[str, Any]:

@@ -24,7 +24,7 @@ from .piles import exposed_height, pile_change, pile_footprint, pile_outline
 from .register import IDENTITY, Registration, register
 from .results import ChangeResult, ObjectChange
 from .tie import tie_to_objects
-from .tops import TopLevel, reef_tops
+from .tops import Levels, reef_tops
 
 __all__ = ["compare_surveys"]
 
@@ -304,7 +304,7 @@ def _without_objects(diff: Grid, before: Result, after: Result, reg: Registratio
 
 
 def _objects(before: ReefResult, after: ReefResult, reg: Registration, opt: ChangeOptions, diff: Grid,
-             noise: MapNoise, tops: tuple[list[TopLevel], list[TopLevel]]) -> list[ObjectChange]:
+             noise: MapNoise, tops: tuple[list[Levels], list[Levels]]) -> list[ObjectChange]:
     """Every reef of either survey with its change, before ids first (``tops``: each survey's
     units' top levels, :func:`~mbinspect.change.tops.reef_tops`)."""
     bxy = _positions(before)

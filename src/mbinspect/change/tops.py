@@ -28,9 +28,11 @@ from ..geometry import points_in_polygon
 from ..noise import robust_sigma
 from ..reefs.results import Reef
 from ..reefs.tilt import top_plane
+from ..scour import grown
 from .grid import _group_medians
 
-__all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops"]
+__all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops", "ground_level", "Levels",
+           "ROUND_BAND"]
 
 #: The vertical noise (m) below which no top's soundings are taken to agree (a plane's
 #: tolerance is three of it).
@@ -44,6 +46,17 @@ DEFAULT_NOISE = 0.02
 
 
 TopLevel = tuple[float, float, str]
+
+#: A unit's top level, its 1-sigma, why it was not read, and the seabed round it (m, up).
+Levels = tuple[float, float, str, float]
+
+#: The band round a unit (m beyond its footprint's outline) whose soundings give the seabed
+#: its exposed height stands on: outside most of the wall's bloom, and the seabed the
+#: simulator's truth takes round a unit (0.3 m beyond its outline) at its middle.
+ROUND_BAND = (0.15, 0.45)
+#: The soundings of that band more than this (m) above the unit's seabed under it (as its
+#: survey measured it) are not the seabed round it.
+ROUND_ABOVE = 0.2
 
 
 #: Soundings the noise is read on, at most (every k-th).
@@ -107,11 +120,7 @@ def top_level(points: np.ndarray, reef: Reef, *, ping: np.ndarray | None = None,
     poly = np.asarray(reef.outline, np.float64).reshape(-1, 2)
     if len(poly) < 3 or not (math.isfinite(reef.z_seabed) and math.isfinite(reef.height)):
         return math.nan, math.nan, "no footprint"
-    order, xs = index if index is not None else by_x(points)
-    lo = int(np.searchsorted(xs, poly[:, 0].min(), side="left"))
-    hi = int(np.searchsorted(xs, poly[:, 0].max(), side="right"))
-    idx = order[lo:hi]
-    idx = idx[(points[idx, 1] >= poly[:, 1].min()) & (points[idx, 1] <= poly[:, 1].max())]
+    idx = _in_box(points, poly, index)
     idx = idx[points_in_polygon(points[idx], poly)]
     idx = idx[points[idx, 2] > reef.z_seabed + 0.5 * reef.height]
     pts = points[idx]
@@ -135,11 +144,69 @@ def top_level(points: np.ndarray, reef: Reef, *, ping: np.ndarray | None = None,
     return float(level[k]), sigma, ""
 
 
+def ground_level(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> float:
+    """The seabed round a unit, at its centre (m, up): a plane through the soundings in the
+    :data:`ROUND_BAND` round its footprint no more than :data:`ROUND_ABOVE` above its seabed
+    under it, trimmed of what stands off the plane; NaN when fewer
+    than 20 soundings, or soundings in fewer than 6 of 8 directions round it, remain.
+
+    A plane, not a curved surface: round a scour pit the band lies in the pit, and a curved
+    surface carried under the unit would bend on down into the pit's bowl there (by 10 cm
+    over the scoured units of ``study_change.py``).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> xy = rng.uniform(-3, 3, (20_000, 2))
+    >>> z = np.where(np.abs(xy).max(axis=1) <= 1.0, -9.0, -11.0 + 0.05 * xy[:, 0])
+    >>> square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+    >>> reef = Reef(1, 0.0, 0.0, -11.0, -9.0, 2.0, 4.0, 2.0, 2.0, 0.0, 4.0, 4.0, 600, outline=square)
+    >>> round(ground_level(np.column_stack([xy, z]), reef), 3)
+    -11.0
+    """
+    poly = np.asarray(reef.outline, np.float64).reshape(-1, 2)
+    if len(poly) < 3:
+        return math.nan
+    inner, outer = grown(poly, ROUND_BAND[0]), grown(poly, ROUND_BAND[1])
+    idx = _in_box(points, outer, index)
+    idx = idx[points_in_polygon(points[idx], outer) & ~points_in_polygon(points[idx], inner)]
+    # the seabed, not the unit: a radial band cuts a concave footprint's arms, a leaning or
+    # overturned unit reaches past its outline, and a neighbour may stand in the band
+    if math.isfinite(reef.z_seabed):
+        idx = idx[points[idx, 2] <= reef.z_seabed + ROUND_ABOVE]
+    if len(idx) < 20:
+        return math.nan
+    u, v, z = points[idx, 0] - reef.x, points[idx, 1] - reef.y, points[idx, 2]
+    if len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) < 6:
+        return math.nan
+    design = np.column_stack([np.ones_like(u), u, v])
+    keep = np.ones(len(z), bool)
+    for _ in range(3):  # a neighbour's wall or a stray in the band: trimmed off
+        coef = np.linalg.lstsq(design[keep], z[keep], rcond=None)[0]
+        res = z - design @ coef
+        keep = np.abs(res) <= max(3.0 * robust_sigma(res[keep]), 0.02)
+        if keep.sum() < 12:
+            return math.nan
+    return float(coef[0])
+
+
+def _in_box(points: np.ndarray, poly: np.ndarray, index: tuple[np.ndarray, np.ndarray] | None
+            ) -> np.ndarray:
+    """The rows of ``points`` in the plan box round ``poly`` (``index``: :func:`by_x` of them)."""
+    order, xs = index if index is not None else by_x(points)
+    idx = order[int(np.searchsorted(xs, poly[:, 0].min(), side="left")):
+                int(np.searchsorted(xs, poly[:, 0].max(), side="right"))]
+    return idx[(points[idx, 1] >= poly[:, 1].min()) & (points[idx, 1] <= poly[:, 1].max())]
+
+
 def reef_tops(reefs: tuple[Reef, ...] | list[Reef], points: np.ndarray, fields: Mapping[str, Any] | None
-              ) -> list[TopLevel]:
-    """Every unit's :func:`top_level` in one survey's levelled soundings."""
+              ) -> list[Levels]:
+    """Every unit's :func:`top_level` in one survey's levelled soundings, with the seabed
+    round it (:func:`ground_level`)."""
     if not len(reefs):
         return []
     ping = None if not fields or "ping" not in fields else np.asarray(fields["ping"])
     noise, index = sounding_noise(points), by_x(points)
-    return [top_level(points, r, ping=ping, noise=noise, index=index) for r in reefs]
+    return [(*top_level(points, r, ping=ping, noise=noise, index=index), ground_level(points, r, index=index))
+            for r in reefs]
