@@ -24,7 +24,7 @@ MEASURES: tuple[tuple[str, str, str], ...] = (
     ("rotation_deg", "deg", "turn about the vertical (clockwise), within the design's symmetry"),
     ("settlement", "m", "the top went down by (its plane's highest point in the levelled soundings, "
                         "else the least depth; registered; positive down)"),
-    ("height_change", "m", "exposed height (top over the seabed) after minus before"),
+    ("height_change", "m", "exposed height (top over the seabed round it) after minus before"),
     ("tilt_change_deg", "deg", "the top plane's tilt after minus before"),
     ("scour_depth", "m", "the seabed round the unit went down by (deepest ring)"),
     ("scour_radius", "m", "from the unit's centre to where the scour is half its depth"),
