@@ -25,7 +25,7 @@ from .checks import check_points, integer
 from .errors import InputError
 
 __all__ = ["ANGLE_BINS", "NoiseProfile", "backscatter_anomaly", "noise_profile", "robust_sigma",
-           "seabed_residuals"]
+           "seabed_residuals", "trimmed_lstsq"]
 
 #: Beam-angle bins (degrees from vertical, either side) of the profile.
 ANGLE_BINS = (0.0, 20.0, 40.0, 55.0, 65.0, 90.0)
@@ -340,3 +340,26 @@ def noise_profile(points: np.ndarray, fields: dict[str, np.ndarray] | None = Non
         p99_ratio=float(np.quantile(np.abs(r - np.median(r)), 0.99) / sigma) if sigma > 0 else float("nan"),
         by_angle=tuple(by_angle), beam_correlation=beam_corr, ping_correlation=ping_corr,
         ping_share=ping_share)
+
+
+def trimmed_lstsq(design: np.ndarray, z: np.ndarray, rounds: int, min_keep: int = 12) -> np.ndarray | None:
+    """Least squares of ``z`` on ``design``, refitted ``rounds`` times to the rows within
+    three robust sigmas (at least 2 cm) of the last fit; None when fewer than ``min_keep``
+    rows are left.
+
+    Examples
+    --------
+    >>> x = np.linspace(0.0, 1.0, 50)
+    >>> z = 2.0 + x; z[7] = 9.0  # one stray
+    >>> np.round(trimmed_lstsq(np.column_stack([np.ones_like(x), x]), z, 2), 6).tolist()
+    [2.0, 1.0]
+    """
+    keep = np.ones(len(z), bool)
+    coef = np.zeros(design.shape[1])
+    for _ in range(rounds):
+        coef = np.linalg.lstsq(design[keep], z[keep], rcond=None)[0]
+        res = z - design @ coef
+        keep = np.abs(res) <= max(3.0 * robust_sigma(res[keep]), 0.02)
+        if keep.sum() < min_keep:
+            return None
+    return coef

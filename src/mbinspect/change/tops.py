@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import points_in_polygon
-from ..noise import robust_sigma
+from ..noise import robust_sigma, trimmed_lstsq
 from ..reefs.results import Reef
 from ..reefs.tilt import top_plane
 from ..scour import grown
@@ -180,15 +180,8 @@ def ground_level(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.
     u, v, z = points[idx, 0] - reef.x, points[idx, 1] - reef.y, points[idx, 2]
     if len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) < 6:
         return math.nan
-    design = np.column_stack([np.ones_like(u), u, v])
-    keep = np.ones(len(z), bool)
-    for _ in range(3):  # a neighbour's wall or a stray in the band: trimmed off
-        coef = np.linalg.lstsq(design[keep], z[keep], rcond=None)[0]
-        res = z - design @ coef
-        keep = np.abs(res) <= max(3.0 * robust_sigma(res[keep]), 0.02)
-        if keep.sum() < 12:
-            return math.nan
-    return float(coef[0])
+    coef = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v]), z, 3)  # a neighbour's wall or a stray: off
+    return math.nan if coef is None else float(coef[0])
 
 
 def _in_box(points: np.ndarray, poly: np.ndarray, index: tuple[np.ndarray, np.ndarray] | None

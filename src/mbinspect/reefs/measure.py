@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..geometry import convex_hull, min_area_rectangle
-from ..noise import robust_sigma
+from ..noise import trimmed_lstsq
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 from .ground import Seabed
@@ -130,15 +130,10 @@ def ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: Rast
     # the ring must surround the reef: soundings in at least 6 of 8 directions
     if len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) < 6:
         return None
-    design = np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v])
-    keep = np.ones(len(p), dtype=bool)
-    coef = np.zeros(6)
-    for _ in range(2):
-        coef, *_ = np.linalg.lstsq(design[keep], p[keep, 2], rcond=None)
-        res = p[:, 2] - design @ coef
-        keep = np.abs(res) <= max(3 * robust_sigma(res[keep]), 0.02)
-        if keep.sum() < 12:
-            return None
+    fit = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]), p[:, 2], 2)
+    if fit is None:
+        return None
+    coef = fit
 
     def surface(qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
         a, b = np.asarray(qx, np.float64) - x, np.asarray(qy, np.float64) - y
