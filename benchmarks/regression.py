@@ -26,6 +26,7 @@ CASES: dict[str, tuple[str, dict, dict]] = {
     "jacket": ("jacket", {}, {"method": "both"}),
     "jacket-tilt5": ("jacket", {"tilt_max_deg": 5.0}, {}),
     "jacket-noise-x2": ("jacket", {"noise_scale": 2.0}, {"method": "centre"}),
+    "jacket-beam": ("jacket", {"sonar": "shallow-beam"}, {"beam_width_deg": 1.0}),
     "reef-field": ("reef-field", {}, {}),
     "reef-single+hollow": ("reef-field", {"groups": "cross1,hollow,cross1,hollow"},
                            {"design": "cross1,hollow"}),

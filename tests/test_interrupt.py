@@ -65,13 +65,26 @@ def _has_open(pid: int, path: Path) -> bool:
         return False
 
 
+def _reading(pid: int, path: Path) -> bool:
+    """The command, or one of its forked readers, has ``path`` open."""
+    if _has_open(pid, path):
+        return True
+    try:
+        kids = (Path(f"/proc/{pid}/task/{pid}/children")).read_text().split()
+    except OSError:
+        return False
+    return any(_has_open(int(k), path) for k in kids)
+
+
 def _start(big: Path, out: Path) -> subprocess.Popen[str]:
     p = subprocess.Popen([_exe(), "piles", str(big), "--radius", "0.75", "--out", str(out)],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 30
-    while not _has_open(p.pid, big) and time.monotonic() < deadline:
+    seen = False
+    while not seen and p.poll() is None and time.monotonic() < deadline:
+        seen = _reading(p.pid, big)
         time.sleep(0.002)
-    assert _has_open(p.pid, big), "the read did not start"
+    assert seen, f"the read did not start (exit status {p.poll()})"
     return p
 
 

@@ -300,9 +300,10 @@ def test_a_layout_predicted_near_the_target_is_surveyed_again_until_clear(monkey
         search.trials[name] = []
         search.firm(name)
     # 10.5 mm against 10 mm: the surveys agree (no scatter), so the bound is the floor, 0.2/sqrt(n):
-    # 12 % after 3 surveys, 8 % after 6; still within it, surveyed in batches of 3 up to 8
-    assert {n: len(t) for n, t in search.trials.items()} == {"near": 8, "far": 3, "clear": 3}
-    assert len({t.seed for t in search.trials["near"]}) == 8
+    # 12 % after 3 surveys, so surveyed again (3 more); 8 % after 6, when even its lower bound
+    # (9.6 mm) held at the upper bound 8 surveys give at best (7 %: 10.3 mm) misses 10 mm: set aside
+    assert {n: len(t) for n, t in search.trials.items()} == {"near": 6, "far": 3, "clear": 3}
+    assert len({t.seed for t in search.trials["near"]}) == 6
     with pytest.raises(ParameterError, match="max_seeds: 2; expected at least seeds"):
         PlanOptions(radius=0.75, depth=21.0, seeds=3, max_seeds=2)
 

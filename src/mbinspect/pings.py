@@ -79,10 +79,11 @@ def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, 
     inv = inv.ravel()
     n = np.bincount(inv).astype(float)
     ang = np.asarray(beam_angle, float)
-    spread = np.full(len(n), -np.inf)
-    np.maximum.at(spread, inv, ang)
-    low = np.full(len(n), np.inf)
-    np.minimum.at(low, inv, ang)
+    # the soundings by ping, nearest nadir first: each ping's run starts at ``first``
+    order = np.lexsort((np.abs(tan), inv))
+    first = np.searchsorted(inv[order], np.arange(len(n)))
+    by_ping = ang[order]
+    spread, low = np.maximum.reduceat(by_ping, first), np.minimum.reduceat(by_ping, first)
     usable = (n >= min_beams) & (spread - low >= 10)
     # each ping's straight line x = x0 + sx tan, y = y0 + sy tan, by least squares in closed form
     st, stt = np.bincount(inv, tan), np.bincount(inv, tan * tan)
@@ -99,8 +100,6 @@ def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, 
     h = np.hypot(sx, sy)
     usable &= h > 0
     # the height from the three soundings nearest nadir (their median)
-    order = np.lexsort((np.abs(tan), inv))
-    first = np.searchsorted(inv[order], np.arange(len(n)))
     mid = order[np.minimum(first + np.where(n >= 3, 1, 0), len(order) - 1)]
     trio = np.sort(np.stack([pts[order[np.minimum(first + k, len(order) - 1)], 2] for k in range(3)]), axis=0)
     z_near = np.where(n >= 3, trio[1], pts[mid, 2])

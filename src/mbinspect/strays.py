@@ -160,11 +160,9 @@ def duplicate_soundings(points: np.ndarray) -> np.ndarray:
     ranked = np.sort(h)  # half an argsort's time: most surveys have no copy, and stop here
     if not (ranked[1:] == ranked[:-1]).any():
         return out
-    order = np.argsort(h)
-    meet = np.flatnonzero(h[order[1:]] == h[order[:-1]])
-    if not len(meet):
-        return out
-    rows = order[np.unique(np.r_[meet, meet + 1])]
+    # only the rows whose hash is shared (a sorted lookup, not a second sort of them all)
+    shared = np.unique(ranked[1:][ranked[1:] == ranked[:-1]])
+    rows = np.flatnonzero(shared[np.searchsorted(shared, h).clip(max=len(shared) - 1)] == h)
     order = rows[np.lexsort((rows, pts[rows, 2], pts[rows, 1], pts[rows, 0]))]
     same = (pts[order[1:]] == pts[order[:-1]]).all(axis=1)
     out[order[1:][same]] = True

@@ -74,8 +74,8 @@ def cylinder_from_normals(sample: np.ndarray, *, radius: float,
 
 
 def _axis_from_params(ax: float, ay: float) -> np.ndarray:
-    a = np.array([ax, ay, 1.0])
-    return a / np.linalg.norm(a)
+    n = math.sqrt(ax * ax + ay * ay + 1.0)
+    return np.array([ax / n, ay / n, 1.0 / n])
 
 
 def fit_cylinder(points: np.ndarray, start: Cylinder, *, radius: float | None = None,
@@ -179,18 +179,25 @@ def _residuals(rel: np.ndarray, q: np.ndarray, unpack: Any, w: Any, *, plumb: bo
     """The weighted point-to-cylinder distances less the radius, and their derivatives with
     respect to (x, y[, ax, ay][, r])."""
     c, a, r = unpack(q)
-    d = rel - c
-    s = d @ a
-    dist = np.sqrt(np.maximum(np.einsum("ij,ij->i", d, d) - s * s, 0.0))
-    rho = np.maximum(dist, 1e-12)
-    cols = [(-d[:, 0] + s * a[0]) / rho, (-d[:, 1] + s * a[1]) / rho]
+    # by coordinate, into one Jacobian: a fit makes thousands of these calls on a few
+    # hundred soundings, where each temporary array costs more than its arithmetic
+    dx, dy, dz = rel[:, 0] - c[0], rel[:, 1] - c[1], rel[:, 2] - c[2]
+    s = dx * a[0] + dy * a[1] + dz * a[2]
+    dist = np.sqrt(np.maximum(dx * dx + dy * dy + dz * dz - s * s, 0.0))
+    inv = 1.0 / np.maximum(dist, 1e-12)
+    ex, ey = (s * a[0] - dx) * inv, (s * a[1] - dy) * inv  # minus the unit radial, x and y
+    jac = np.empty((len(dx), 2 + (0 if plumb else 2) + (0 if fixed_r else 1)))
+    jac[:, 0], jac[:, 1] = ex, ey
     if not plumb:
         norm = math.sqrt(q[2] ** 2 + q[3] ** 2 + 1.0)
-        cols += [-s * (d[:, 0] - s * a[0]) / (norm * rho), -s * (d[:, 1] - s * a[1]) / (norm * rho)]
+        jac[:, 2], jac[:, 3] = s * ex / norm, s * ey / norm
     if not fixed_r:
-        cols.append(np.full(len(d), -1.0))
-    weight = np.ones(len(d)) * w
-    return weight * (dist - r), np.column_stack(cols) * weight[:, None]
+        jac[:, -1] = -1.0
+    f = dist - r
+    if np.ndim(w) or w != 1.0:
+        f *= w
+        jac *= np.reshape(w, (-1, 1))
+    return f, jac
 
 
 def _random_effects(res: np.ndarray, groups: np.ndarray, discount: float = 0.25

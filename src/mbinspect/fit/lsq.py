@@ -14,6 +14,7 @@ solution, as SciPy's ``jac`` is; its stopping tests are SciPy's (``ftol``, ``xto
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -113,7 +114,7 @@ def soft_l1_least_squares(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarr
             continue
         cost_new, f_fold, J_fold = _folded(f_new, J_new, f_scale)
         reduction = cost - cost_new
-        small_step = np.linalg.norm(step) < xtol * (xtol + np.linalg.norm(x))
+        small_step = math.sqrt(step @ step) < xtol * (xtol + math.sqrt(x @ x))
         if reduction > 0:
             ratio = reduction / predicted if predicted > 0 else 1.0
             x = x + step

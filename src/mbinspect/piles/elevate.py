@@ -231,23 +231,21 @@ def pile_thresholds(cloud_int: np.ndarray | None, points: np.ndarray, candidates
     ids = [int(c) for c in np.unique(labels) if c >= 0]
     if cloud_int is None or not ids:
         return {c + 1: None for c in ids}, None
-    from scipy.spatial import cKDTree
-
     cloud_int = np.asarray(cloud_int, float)
     values = cloud_int[candidates].copy()
     ground = np.flatnonzero(near_seabed)
-    # only the seabed within reach of a candidate: the tree over a whole survey's seabed
-    # cost more than every ring it answers
+    # only the seabed within reach of a candidate; each pile's ring by plan distance from
+    # it (a tree over that seabed cost more than the few rings it answered)
     reach = RING_RADII * radius + 2.0
     lo, hi = points[candidates, :2].min(axis=0) - reach, points[candidates, :2].max(axis=0) + reach
     gxy = points[ground, :2]
-    ground = ground[np.all((gxy >= lo) & (gxy <= hi), axis=1)]
-    tree = cKDTree(points[ground, :2]) if len(ground) else None
+    inside = np.all((gxy >= lo) & (gxy <= hi), axis=1)
+    ground, gxy = ground[inside], gxy[inside]
     for c in ids:
         mine = labels == c
         own = candidates[mine]
-        near = ground[np.sort(np.asarray(tree.query_ball_point(points[own, :2].mean(axis=0), reach),
-                                         np.int64))] if tree is not None else np.zeros(0, np.int64)
+        off = gxy - points[own, :2].mean(axis=0)
+        near = ground[np.einsum("ij,ij->i", off, off) <= reach * reach]
         rows = np.r_[own, near]
         is_own = np.arange(len(rows)) < len(own)
         inten = cloud_int[rows]

@@ -22,7 +22,7 @@ from .pool import run_trials, ticker
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
 from .reef_results import ReefPlanResult
 from .reef_run import plan_reef_survey
-from .results import PlanResult, PredictedSpacing, Prediction
+from .results import SCATTER_FLOOR, PlanResult, PredictedSpacing, Prediction
 
 __all__ = ["plan_survey", "plan_input", "design_piles", "ping_rate"]
 
@@ -210,18 +210,21 @@ class _Search:
 
     def firm(self, name: str) -> Prediction:
         """The layout surveyed ``seeds`` times in all, then in more batches of ``seeds``
-        (rounded up to a multiple of ``workers``; up to ``max_seeds``) while the target lies
-        within the 1-sigma bounds of its worst spacing's predicted 1-sigma
-        (:attr:`~mbinspect.plan.results.Prediction.sigma_error`: the scatter its surveys
-        show, not under 12 % from three surveys or 7 % from nine)."""
+        (rounded up to a multiple of ``workers``; up to ``max_seeds``) while it may still
+        meet the target: the target lies below the upper 1-sigma bound of its worst spacing's
+        predicted 1-sigma (:attr:`~mbinspect.plan.results.Prediction.sigma_error`: the
+        scatter its surveys show, not under 12 % from three surveys or 7 % from nine), and
+        above the lower bound held at the upper bound ``max_seeds`` surveys could give at
+        best (were the estimate to fall that far, its bound would still miss the target)."""
         seeds, first = self.seeds(), self.options.seeds
         self.run([self.layouts[name]], seeds[len(self.trials[name]):first])
         step = -(-first // self.options.workers) * self.options.workers  # no worker left idle
+        best = 1.0 + SCATTER_FLOOR / math.sqrt(len(seeds))
         while True:
             now = self.prediction(name)
-            ratio = now.worst_sigma / self.options.target_sigma
+            low, high = now.worst_sigma * (1 - now.sigma_error) * best, now.worst_upper
             done = len(self.trials[name])
-            if not 1 - now.sigma_error < 1 / ratio < 1 + now.sigma_error or done >= len(seeds):
+            if not low < self.options.target_sigma < high or done >= len(seeds):
                 return now
             self.run([self.layouts[name]], seeds[done:done + step])
 

@@ -92,9 +92,11 @@ class Seabed:
     def _plane_and_waves(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
         g = math.tan(math.radians(self.slope_deg))
         sx, sy = -g * bearing_to_vector(self.slope_bearing_deg)
+        a = self.sand_wave_amplitude
+        if a == 0:  # no sand waves: the plane alone (most scenes; their sines cost as much as all the rest)
+            return self.z0 + sx * x + sy * y, np.full(np.shape(x), sx), np.full(np.shape(x), sy)
         k = bearing_to_vector(self.sand_wave_bearing_deg) * (2 * math.pi / self.sand_wave_length)
         phase = k[0] * x + k[1] * y
-        a = self.sand_wave_amplitude
         z = self.z0 + sx * x + sy * y + a * np.sin(phase)
         gx = sx + a * k[0] * np.cos(phase)
         gy = sy + a * k[1] * np.cos(phase)
