@@ -209,23 +209,24 @@ class _Search:
         return [self.options.seed * 1000 + k for k in range(self.options.max_seeds)]
 
     def firm(self, name: str) -> Prediction:
-        """The layout surveyed ``seeds`` times in all, then in more batches of ``seeds``
-        (rounded up to a multiple of ``workers``; up to ``max_seeds``) while it may still
-        meet the target: the target lies below the upper 1-sigma bound of its worst spacing's
-        predicted 1-sigma (:attr:`~mbinspect.plan.results.Prediction.sigma_error`: the
-        scatter its surveys show, not under 12 % from three surveys or 7 % from nine), and
-        above the lower bound held at the upper bound ``max_seeds`` surveys could give at
-        best (were the estimate to fall that far, its bound would still miss the target)."""
-        seeds, first = self.seeds(), self.options.seeds
-        self.run([self.layouts[name]], seeds[len(self.trials[name]):first])
-        step = -(-first // self.options.workers) * self.options.workers  # no worker left idle
+        """The layout surveyed in batches of ``workers`` surveys (no worker left idle), at
+        least ``seeds`` in all and up to ``max_seeds``, while it may still meet the target:
+        every spacing measured in every survey so far, and the target below the upper
+        1-sigma bound of its worst spacing's predicted 1-sigma
+        (:attr:`~mbinspect.plan.results.Prediction.sigma_error`: the scatter its surveys
+        show, not under 12 % from three surveys or 7 % from nine) and above the lower bound
+        held at the upper bound ``max_seeds`` surveys could give at best (were the estimate to
+        fall that far, its bound would still miss the target)."""
+        seeds, first, step = self.seeds(), self.options.seeds, self.options.workers
         best = 1.0 + SCATTER_FLOOR / math.sqrt(len(seeds))
         while True:
-            now = self.prediction(name)
-            low, high = now.worst_sigma * (1 - now.sigma_error) * best, now.worst_upper
             done = len(self.trials[name])
-            if not low < self.options.target_sigma < high or done >= len(seeds):
-                return now
+            if done:
+                now = self.prediction(name)
+                low, high = now.worst_sigma * (1 - now.sigma_error) * best, now.worst_upper
+                if not math.isfinite(now.worst_sigma) or done >= len(seeds) or (
+                        done >= first and not low < self.options.target_sigma < high):
+                    return now
             self.run([self.layouts[name]], seeds[done:done + step])
 
     def prediction(self, name: str) -> Prediction:

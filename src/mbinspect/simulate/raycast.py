@@ -29,8 +29,7 @@ def _seabed_hits(seabed: Seabed, o: np.ndarray, d: np.ndarray) -> np.ndarray:
     t = (seabed.z0 - o[:, 2]) / d[:, 2]
     for _ in range(12):
         p = o + t[:, None] * d
-        z = seabed.elevation(p[:, 0], p[:, 1])
-        gx, gy = seabed.gradient(p[:, 0], p[:, 1])
+        z, gx, gy = seabed.surface(p[:, 0], p[:, 1])
         g = p[:, 2] - z
         dg = d[:, 2] - gx * d[:, 0] - gy * d[:, 1]
         step = g / np.minimum(dg, -0.05)

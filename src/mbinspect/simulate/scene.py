@@ -139,14 +139,21 @@ class Seabed:
 
     def gradient(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Partial derivatives dz/dx and dz/dy at local ``x, y``."""
-        _, gx1, gy1 = self._plane_and_waves(x, y)
+        return self.surface(x, y)[1:]
+
+    def surface(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Elevation (m) and its partial derivatives dz/dx, dz/dy at local ``x, y``, each
+        part of the seabed evaluated once for all three (a ray's seabed crossing needs both)."""
+        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        z1, gx1, gy1 = self._plane_and_waves(x, y)
         r, gx2, gy2 = self._rough(x, y)
-        _, drise, scale, dscale = self._shore(np.asarray(y, np.float64))
+        rise, drise, scale, dscale = self._shore(y)
+        z = z1 + scale * r + rise
         gx, gy = gx1 + scale * gx2, gy1 + scale * gy2 + dscale * r + drise
         if self.pits:
-            _, px, py = self._pits(np.asarray(x, np.float64), np.asarray(y, np.float64))
-            gx, gy = gx - px, gy - py
-        return gx, gy
+            low, px, py = self._pits(x, y)
+            z, gx, gy = z - low, gx - px, gy - py
+        return z, gx, gy
 
     def _pits(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """How far the pits lower the seabed at ``x, y``, and that lowering's gradient."""
