@@ -209,13 +209,13 @@ class _Search:
         return [self.options.seed * 1000 + k for k in range(self.options.max_seeds)]
 
     def firm(self, name: str) -> Prediction:
-        """The layout surveyed in batches of ``workers`` surveys (no worker left idle), at
-        least ``seeds`` in all and up to ``max_seeds``, while it may still meet the target:
-        every spacing measured in every survey so far, and the target below the upper
-        1-sigma bound of its worst spacing's predicted 1-sigma
-        (:attr:`~mbinspect.plan.results.Prediction.sigma_error`: the scatter its surveys
-        show, not under 12 % from three surveys or 7 % from nine) and above the lower bound
-        held at the upper bound ``max_seeds`` surveys could give at best (were the estimate to
+        """The layout surveyed in batches of ``workers`` surveys (no worker left idle), up to
+        ``max_seeds``, until it meets the target (after ``seeds`` surveys at least: the target
+        at or above the upper 1-sigma bound of its worst spacing's predicted 1-sigma,
+        :attr:`~mbinspect.plan.results.Prediction.sigma_error`, the scatter its surveys show,
+        not under 12 % from three surveys or 7 % from nine) or cannot (from two surveys on: a
+        spacing some survey did not measure, or the target at or below the lower bound held
+        at the upper bound ``max_seeds`` surveys could give at best; were the estimate to
         fall that far, its bound would still miss the target)."""
         seeds, first, step = self.seeds(), self.options.seeds, self.options.workers
         best = 1.0 + SCATTER_FLOOR / math.sqrt(len(seeds))
@@ -224,8 +224,9 @@ class _Search:
             if done:
                 now = self.prediction(name)
                 low, high = now.worst_sigma * (1 - now.sigma_error) * best, now.worst_upper
-                if not math.isfinite(now.worst_sigma) or done >= len(seeds) or (
-                        done >= first and not low < self.options.target_sigma < high):
+                target = self.options.target_sigma
+                hopeless = not math.isfinite(now.worst_sigma) or (done >= 2 and low >= target)
+                if hopeless or done >= len(seeds) or (done >= first and high <= target):
                     return now
             self.run([self.layouts[name]], seeds[done:done + step])
 
