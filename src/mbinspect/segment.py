@@ -144,7 +144,10 @@ def components(points: np.ndarray, *, eps: float, min_points: int = 1) -> np.nda
     n = len(pts)
     if n == 0:
         return np.zeros(0, dtype=np.int64)
-    pairs = cKDTree(pts - pts.mean(axis=0)).query_pairs(eps, output_type="ndarray")
+    local = pts - pts.mean(axis=0)
+    pairs = _delaunay_links(local, eps) if pts.shape[1] == 2 else None
+    if pairs is None:
+        pairs = cKDTree(local).query_pairs(eps, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, lab = connected_components(graph, directed=False)
     sizes = np.bincount(lab)
@@ -154,6 +157,31 @@ def components(points: np.ndarray, *, eps: float, min_points: int = 1) -> np.nda
     out = rank[lab]
     out[sizes[lab] < min_points] = -1
     return out
+
+
+def _delaunay_links(xy: np.ndarray, eps: float) -> np.ndarray | None:
+    """The edges of the plan Delaunay triangulation no longer than ``eps``: they join the same
+    points as every pair within ``eps`` (the Euclidean minimum spanning tree is a subgraph of
+    the triangulation, and its path between two points within ``eps`` has no longer edge),
+    without listing the millions of pairs a dense pile wall holds. None where the
+    triangulation does not hold every point (too few, all on a line)."""
+    from scipy.spatial import Delaunay, QhullError
+
+    if len(xy) < 4:
+        return None
+    try:
+        tri = Delaunay(xy)
+    except (QhullError, ValueError):
+        return None
+    s = tri.simplices
+    edges = np.concatenate([s[:, [0, 1]], s[:, [1, 2]], s[:, [0, 2]]])
+    if len(tri.coplanar):  # points Qhull left out (copies of a vertex): joined to their vertex
+        edges = np.vstack([edges, tri.coplanar[:, [0, 2]]])
+    gap = xy[edges[:, 0]] - xy[edges[:, 1]]
+    length = np.hypot(gap[:, 0], gap[:, 1])
+    if len(tri.coplanar) and (length[-len(tri.coplanar):] > eps).any():
+        return None  # one left out farther than eps from its vertex: its own neighbours unknown
+    return edges[length <= eps]
 
 
 def elevation_window(z: np.ndarray, *, window: float = 0.1, step: float = 0.01
