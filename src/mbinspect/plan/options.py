@@ -76,7 +76,7 @@ class PlanOptions(Options):
     seeds: int = option(3, check="count", help="simulated surveys per candidate layout")
     max_seeds: int = option(9, check="count",
                             help="simulated surveys a layout predicted near the target gets at most, "
-                                 "in batches of seeds, until its prediction is clear of the target")
+                                 "as many at once as workers, until it meets the target or cannot")
     seed: int = option(0, check="seed", help="seed of the simulated surveys")
     tilt_max: float = option(1.0, unit="deg", check="non_negative",
                              help="as-built lean of the piles in the simulated surveys, drawn up to this")
