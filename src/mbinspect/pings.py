@@ -64,50 +64,55 @@ def ping_geometry(points: np.ndarray, ping: np.ndarray, beam_angle: np.ndarray, 
     axes = np.full_like(pts, np.nan)
     if len(pts) == 0:
         return origins, axes, np.zeros(0, bool)
-    if fit is not None:
-        keys, inv = np.unique(ping, return_inverse=True)
-        inv, rows = inv.ravel(), np.flatnonzero(fit)
-        o, a, _ = ping_geometry(pts[rows], inv[rows], np.asarray(beam_angle)[rows], min_beams=min_beams)
-        first = np.full(len(keys), -1)
-        first[inv[rows[::-1]]] = np.arange(len(rows))[::-1]  # a fitted row of each ping
-        have = first[inv] >= 0
-        src = first[inv][have]
-        origins[have], axes[have] = o[src], a[src]
-        return origins, axes, np.isfinite(origins[:, 0])
-    tan = np.tan(np.radians(np.clip(beam_angle, -85, 85)))
     _, inv = np.unique(ping, return_inverse=True)
     inv = inv.ravel()
-    n = np.bincount(inv).astype(float)
-    ang = np.asarray(beam_angle, float)
+    rows = np.arange(len(pts)) if fit is None else np.flatnonzero(fit)
+    ok, per_origin, per_axis = _per_ping(pts[rows], inv[rows], np.asarray(beam_angle, float)[rows],
+                                         int(inv.max()) + 1, min_beams)
+    good = ok[inv]
+    origins[good], axes[good] = per_origin[inv[good]], per_axis[inv[good]]
+    return origins, axes, np.isfinite(origins[:, 0])
+
+
+def _per_ping(pts: np.ndarray, inv: np.ndarray, ang: np.ndarray, n_pings: int, min_beams: int
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per ping (labels ``inv`` in ``0..n_pings-1``, each ping's soundings given or none):
+    whether its transducer can be estimated, the transducer (n_pings, 3) and the swath axis."""
+    ok = np.zeros(n_pings, bool)
+    origin, axis = np.full((n_pings, 3), np.nan), np.full((n_pings, 3), np.nan)
+    if len(pts) == 0:
+        return ok, origin, axis
+    tan = np.tan(np.radians(np.clip(ang, -85, 85)))
+    n = np.bincount(inv, minlength=n_pings).astype(float)
     # the soundings by ping, nearest nadir first: each ping's run starts at ``first``
     order = np.lexsort((np.abs(tan), inv))
-    first = np.searchsorted(inv[order], np.arange(len(n)))
-    by_ping = ang[order]
-    spread, low = np.maximum.reduceat(by_ping, first), np.minimum.reduceat(by_ping, first)
+    first = np.searchsorted(inv[order], np.arange(n_pings))
+    by_ping, at = ang[order], np.minimum(first, len(order) - 1)  # a ping without soundings is not used
+    spread, low = np.maximum.reduceat(by_ping, at), np.minimum.reduceat(by_ping, at)
     usable = (n >= min_beams) & (spread - low >= 10)
     # each ping's straight line x = x0 + sx tan, y = y0 + sy tan, by least squares in closed form
-    st, stt = np.bincount(inv, tan), np.bincount(inv, tan * tan)
+    st, stt = np.bincount(inv, tan, n_pings), np.bincount(inv, tan * tan, n_pings)
     den = n * stt - st * st
     with np.errstate(divide="ignore", invalid="ignore"):
         lines = []
         for col in (pts[:, 0], pts[:, 1]):
             # centred on each ping's mean so that eastings of 10^5 m lose no precision
-            mean = np.bincount(inv, col) / n
+            mean = np.bincount(inv, col, n_pings) / n
             c = col - mean[inv]
-            slope = (n * np.bincount(inv, tan * c) - st * np.bincount(inv, c)) / den
-            lines.append((mean + (np.bincount(inv, c) - slope * st) / n, slope))
-    (x0, sx), (y0, sy) = lines
-    h = np.hypot(sx, sy)
-    usable &= h > 0
-    # the height from the three soundings nearest nadir (their median)
-    mid = order[np.minimum(first + np.where(n >= 3, 1, 0), len(order) - 1)]
-    trio = np.sort(np.stack([pts[order[np.minimum(first + k, len(order) - 1)], 2] for k in range(3)]), axis=0)
-    z_near = np.where(n >= 3, trio[1], pts[mid, 2])
-    good = usable[inv]
-    origins[good] = np.column_stack([x0, y0, z_near + h])[inv[good]]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        axes[good] = np.column_stack([sx / h, sy / h, np.zeros(len(n))])[inv[good]]
-    return origins, axes, np.isfinite(origins[:, 0])
+            sc = np.bincount(inv, c, n_pings)
+            slope = (n * np.bincount(inv, tan * c, n_pings) - st * sc) / den
+            lines.append((mean + (sc - slope * st) / n, slope))
+        (x0, sx), (y0, sy) = lines
+        h = np.hypot(sx, sy)
+        ok = usable & (h > 0)
+        # the height from the three soundings nearest nadir (their median)
+        last = len(order) - 1
+        mid = order[np.minimum(first + np.where(n >= 3, 1, 0), last)]
+        trio = np.sort(np.stack([pts[order[np.minimum(first + k, last)], 2] for k in range(3)]), axis=0)
+        z_near = np.where(n >= 3, trio[1], pts[mid, 2])
+        origin[ok] = np.column_stack([x0, y0, z_near + h])[ok]
+        axis[ok] = np.column_stack([sx / h, sy / h, np.zeros(n_pings)])[ok]
+    return ok, origin, axis
 
 
 def estimate_pings(points: np.ndarray, *, jump: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
