@@ -67,13 +67,16 @@ class Plane(_ArrayFields):
     def from_sample(cls, sample: np.ndarray) -> Plane | None:
         """The plane through three points, or None when they are (nearly) collinear."""
         p = np.asarray(sample, np.float64)[:, :3]
-        n = np.cross(p[1] - p[0], p[2] - p[0])
-        norm = np.linalg.norm(n)
-        scale = max(float(np.linalg.norm(p[1] - p[0]) * np.linalg.norm(p[2] - p[0])), 1e-300)
+        # in plain floats: MSAC draws thousands of samples, each three points
+        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = p[:3].tolist()
+        ux, uy, uz, vx, vy, vz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        scale = max(math.sqrt(ux * ux + uy * uy + uz * uz) * math.sqrt(vx * vx + vy * vy + vz * vz), 1e-300)
         if norm < 1e-6 * scale:
             return None
-        n = n / norm
-        return cls(p[0].copy(), n if n[2] >= 0 else -n)
+        sign = 1.0 if nz >= 0 else -1.0
+        return cls(p[0].copy(), np.array([nx, ny, nz]) * (sign / norm))
 
     def residuals(self, points: np.ndarray) -> np.ndarray:
         """Signed orthogonal distance of each point (positive above)."""
@@ -140,8 +143,8 @@ class Cylinder(_ArrayFields):
     def residuals(self, points: np.ndarray) -> np.ndarray:
         """Signed orthogonal distance to the surface (positive outside)."""
         q = np.asarray(points, np.float64)[:, :3] - self.point
-        s = q @ self.axis
-        return np.linalg.norm(q - np.outer(s, self.axis), axis=1) - self.radius
+        d = q - (q @ self.axis)[:, None] * self.axis
+        return np.sqrt(np.einsum("ij,ij->i", d, d)) - self.radius
 
     def angles(self, points: np.ndarray) -> np.ndarray:
         """Angle of each point around the axis, radians in [0, 2 pi), from grid east."""
