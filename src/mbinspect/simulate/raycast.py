@@ -150,10 +150,22 @@ def rays_near(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
         return near
     sx0, sx1, sy0, sy1 = _spans(targets, o, d, t)
     reach = np.where(np.isfinite(t), t, 0.0) * spread
+    x0, x1, y0, y1 = sx0 - reach, sx1 + reach, sy0 - reach, sy1 + reach
+    # each target's candidates among the rays sorted by their west edge (within one widest
+    # span west of it), not a scan of every ray per target: a reef field has hundreds
+    span = x1 - x0
+    odd = ~np.isfinite(span)  # a ray with no finite span is always a candidate
+    widest = float(span[~odd].max()) + 1e-6 if (~odd).any() else 0.0
+    order = np.flatnonzero(~odd)[np.argsort(x0[~odd], kind="stable")]
+    west = x0[order]
+    extra = np.flatnonzero(odd)
     for tg in targets:
         xmin, xmax, ymin, ymax = tg.bbox
-        near |= ((sx0 - reach <= xmax) & (sx1 + reach >= xmin)
-                 & (sy0 - reach <= ymax) & (sy1 + reach >= ymin))
+        cand = order[np.searchsorted(west, xmin - widest, side="left"):
+                     np.searchsorted(west, xmax, side="right")]
+        if len(extra):
+            cand = np.concatenate([cand, extra])
+        near[cand[(x0[cand] <= xmax) & (x1[cand] >= xmin) & (y0[cand] <= ymax) & (y1[cand] >= ymin)]] = True
     return near
 
 

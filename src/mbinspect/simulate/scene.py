@@ -236,9 +236,14 @@ class Box:
         return float(box_corners(*self.solid())[:, 2].max()) if self.axes else self.z0 + self.height
 
     def corners2d(self) -> np.ndarray:
-        if self.axes:
-            return convex_hull(box_corners(*self.solid())[:, :2])
-        return rectangle_corners(self.cx, self.cy, self.length, self.width, self.bearing_deg)
+        """The plan outline (corners counter-clockwise), made once per box: placing a field's
+        reefs apart asks each box for it thousands of times."""
+        made = self.__dict__.get("_outline")
+        if made is None:
+            made = convex_hull(box_corners(*self.solid())[:, :2]) if self.axes else \
+                rectangle_corners(self.cx, self.cy, self.length, self.width, self.bearing_deg)
+            object.__setattr__(self, "_outline", made)
+        return made.copy()
 
 
 @dataclass(frozen=True)
