@@ -87,8 +87,10 @@ def _per_ping(pts: np.ndarray, inv: np.ndarray, ang: np.ndarray, n_pings: int, m
     # the soundings by ping, nearest nadir first: each ping's run starts at ``first``
     order = np.lexsort((np.abs(tan), inv))
     first = np.searchsorted(inv[order], np.arange(n_pings))
-    by_ping, at = ang[order], np.minimum(first, len(order) - 1)  # a ping without soundings is not used
-    spread, low = np.maximum.reduceat(by_ping, at), np.minimum.reduceat(by_ping, at)
+    has = n > 0  # the runs of the pings with soundings (the others' ranges stay empty)
+    spread, low = np.full(n_pings, -np.inf), np.full(n_pings, np.inf)
+    spread[has] = np.maximum.reduceat(ang[order], first[has])
+    low[has] = np.minimum.reduceat(ang[order], first[has])
     usable = (n >= min_beams) & (spread - low >= 10)
     # each ping's straight line x = x0 + sx tan, y = y0 + sy tan, by least squares in closed form
     st, stt = np.bincount(inv, tan, n_pings), np.bincount(inv, tan * tan, n_pings)

@@ -213,9 +213,9 @@ class _Search:
         ``max_seeds``, until it meets the target (after ``seeds`` surveys at least: the target
         at or above the upper 1-sigma bound of its worst spacing's predicted 1-sigma,
         :attr:`~mbinspect.plan.results.Prediction.sigma_error`, the scatter its surveys show,
-        not under 12 % from three surveys or 7 % from nine) or cannot (from two surveys on: a
-        spacing some survey did not measure, or the target at or below the lower bound held
-        at the upper bound ``max_seeds`` surveys could give at best; were the estimate to
+        not under 12 % from three surveys or 7 % from nine) or cannot: a spacing some survey
+        did not measure, or (from two surveys on) the target at or below the lower bound held
+        at the upper bound ``max_seeds`` surveys could give at best (were the estimate to
         fall that far, its bound would still miss the target)."""
         seeds, first, step = self.seeds(), self.options.seeds, self.options.workers
         best = 1.0 + SCATTER_FLOOR / math.sqrt(len(seeds))
