@@ -151,22 +151,33 @@ def rays_near(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
     sx0, sx1, sy0, sy1 = _spans(targets, o, d, t)
     reach = np.where(np.isfinite(t), t, 0.0) * spread
     x0, x1, y0, y1 = sx0 - reach, sx1 + reach, sy0 - reach, sy1 + reach
-    # each target's candidates among the rays sorted by their west edge (within one widest
-    # span west of it), not a scan of every ray per target: a reef field has hundreds
-    span = x1 - x0
-    odd = ~np.isfinite(span)  # a ray with no finite span is always a candidate
-    widest = float(span[~odd].max()) + 1e-6 if (~odd).any() else 0.0
-    order = np.flatnonzero(~odd)[np.argsort(x0[~odd], kind="stable")]
-    west = x0[order]
-    extra = np.flatnonzero(odd)
+    within = _WestEdges(x0, x1)
     for tg in targets:
         xmin, xmax, ymin, ymax = tg.bbox
-        cand = order[np.searchsorted(west, xmin - widest, side="left"):
-                     np.searchsorted(west, xmax, side="right")]
-        if len(extra):
-            cand = np.concatenate([cand, extra])
+        cand = within.candidates(xmin, xmax)
         near[cand[(x0[cand] <= xmax) & (x1[cand] >= xmin) & (y0[cand] <= ymax) & (y1[cand] >= ymin)]] = True
     return near
+
+
+class _WestEdges:
+    """Rays' plan spans ``x0 <= x <= x1`` sorted by their west edge: the rays whose span may
+    meet ``[xmin, xmax]`` are those starting within one widest span west of it (the same ones
+    as a scan of every ray, found without it: a reef field has hundreds of targets). A ray
+    with no finite span is always a candidate."""
+
+    def __init__(self, x0: np.ndarray, x1: np.ndarray) -> None:
+        span = x1 - x0
+        odd = ~np.isfinite(span)
+        self.widest = float(span[~odd].max()) + 1e-6 if (~odd).any() else 0.0
+        self.order = np.flatnonzero(~odd)[np.argsort(x0[~odd], kind="stable")]
+        self.west = x0[self.order]
+        self.extra = np.flatnonzero(odd)
+
+    def candidates(self, xmin: float, xmax: float) -> np.ndarray:
+        """Rows of the rays that may meet ``[xmin, xmax]``, in west-edge order."""
+        cand = self.order[np.searchsorted(self.west, xmin - self.widest, side="left"):
+                          np.searchsorted(self.west, xmax, side="right")]
+        return np.concatenate([cand, self.extra]) if len(self.extra) else cand
 
 
 def first_object_hits(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
@@ -176,17 +187,11 @@ def first_object_hits(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np
     if not targets:
         return
     sx0, sx1, sy0, sy1 = _spans(targets, o, d, t)
-    order = np.argsort(sx0)
-    sx0s = sx0[order]
-    widest = float((sx1 - sx0).max()) if len(sx0) else 0.0
+    within = _WestEdges(sx0, sx1)
     for tg in targets:
         xmin, xmax, ymin, ymax = tg.bbox
-        # only rays whose x-span can meet the box: those starting within one widest span
-        # west of it (the same candidates in the same order, found without a full scan)
-        start = np.searchsorted(sx0s, xmin - widest, side="left")
-        stop = np.searchsorted(sx0s, xmax, side="right")
-        cand = order[start:stop]
-        cand = cand[(sx1[cand] >= xmin) & (sy0[cand] <= ymax) & (sy1[cand] >= ymin)]
+        cand = within.candidates(xmin, xmax)
+        cand = cand[(sx0[cand] <= xmax) & (sx1[cand] >= xmin) & (sy0[cand] <= ymax) & (sy1[cand] >= ymin)]
         if len(cand) == 0:
             continue
         tt, nn = tg.hit(o[cand], d[cand])
