@@ -25,7 +25,7 @@ from .checks import check_points, integer
 from .errors import InputError
 
 __all__ = ["ANGLE_BINS", "NoiseProfile", "backscatter_anomaly", "noise_profile", "robust_sigma",
-           "seabed_residuals", "trimmed_lstsq"]
+           "seabed_residuals", "trimmed_lstsq", "all_round"]
 
 #: Beam-angle bins (degrees from vertical, either side) of the profile.
 ANGLE_BINS = (0.0, 20.0, 40.0, 55.0, 65.0, 90.0)
@@ -363,3 +363,14 @@ def trimmed_lstsq(design: np.ndarray, z: np.ndarray, rounds: int, min_keep: int 
         if keep.sum() < min_keep:
             return None
     return coef
+
+
+def all_round(u: np.ndarray, v: np.ndarray, sectors: int = 6) -> bool:
+    """Whether offsets ``u, v`` (m east and north of a centre) lie in at least ``sectors`` of
+    the 8 directions round it: soundings that surround an object, for a seabed fitted under it.
+
+    >>> a = np.radians(np.arange(0, 360, 60))
+    >>> all_round(np.cos(a), np.sin(a)), all_round(np.cos(a[:3]), np.sin(a[:3]))
+    (True, False)
+    """
+    return len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) >= sectors

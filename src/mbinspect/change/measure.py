@@ -175,8 +175,7 @@ def _levels(b: Reef, a: Reef, reg: Registration, notes: list[str],
     # exposed heights from the tops as the settlement reads them (a leaning top at its high
     # edge: a median top reads it low, by 8 cm RMS over tilted units), else the least depths
     # (the highest point the soundings support, as its bound is), over each survey's seabed
-    # over each survey's seabed round the unit (else the pipeline's seabed under it, which
-    # bends into a scour pit round it)
+    # round the unit (else the pipeline's seabed under it, which bends into a scour pit round it)
     if not (math.isfinite(gb) and math.isfinite(ga)):
         gb, ga = b.z_seabed, a.z_seabed
     if math.isfinite(zb) and math.isfinite(za) and math.isfinite(gb) and math.isfinite(ga):

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import points_in_polygon
-from ..noise import robust_sigma, trimmed_lstsq
+from ..noise import all_round, robust_sigma, trimmed_lstsq
 from ..reefs.results import Reef
 from ..reefs.tilt import top_plane
 from ..scour import grown
@@ -178,7 +178,7 @@ def ground_level(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.
     if len(idx) < 20:
         return math.nan
     u, v, z = points[idx, 0] - reef.x, points[idx, 1] - reef.y, points[idx, 2]
-    if len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) < 6:
+    if not all_round(u, v):
         return math.nan
     coef = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v]), z, 3)  # a neighbour's wall or a stray: off
     return math.nan if coef is None else float(coef[0])

@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..geometry import convex_hull, min_area_rectangle
-from ..noise import trimmed_lstsq
+from ..noise import all_round, trimmed_lstsq
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 from .ground import Seabed
@@ -128,7 +128,7 @@ def ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: Rast
         return None
     u, v = p[:, 0] - x, p[:, 1] - y
     # the ring must surround the reef: soundings in at least 6 of 8 directions
-    if len(np.unique(np.floor((np.arctan2(v, u) + np.pi) / (np.pi / 4)).astype(int) % 8)) < 6:
+    if not all_round(u, v):
         return None
     fit = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v]), p[:, 2], 2)
     if fit is None:
