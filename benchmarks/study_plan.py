@@ -5,11 +5,12 @@ Run: ``python benchmarks/study_plan.py [--seeds 20] [--configs jacket,wharf,jack
 [--layout NAME] [--hash NAME]``.
 
 ``--layout NAME`` (one configuration) skips the search and plans that layout alone (say, what
-an earlier search chose: ``hash-4.5+topsx2``, ``hash-8.5@2kn``): the same seeds give the same
-trials, so its prediction is the search's, and its surveys take minutes where the wharf's
-search takes an hour. The plan's seconds are then that layout's alone. ``--hash NAME`` sails
-another variant of the paper's '#' beside it (``hash-12.5+topsx2``, ``hash-12.5+tops@2kn``):
-the '#' that meets a target, where the '#' with tops alone does not.
+an earlier search chose: ``hash-4.5+topsx2``, ``hash-8.5@2kn``, ``hash-14.5+tops2way@2kn``):
+the same seeds give the same trials, so its prediction is the search's, and its surveys take
+minutes where the wharf's search takes an hour. The plan's seconds are then that layout's
+alone. ``--hash NAME`` sails another variant of the paper's '#' beside it
+(``hash-12.5+topsx2``, ``hash-12.5+tops@2kn``): the '#' that meets a target, where the '#'
+with tops alone does not.
 
 ``xtf`` is the real background: a small jacket injected beside the R2Sonic XTF's own line at
 four places, against the plan's prediction for that line with the sonar measured from the file.
@@ -42,7 +43,13 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import own_line, run_study, table  # noqa: E402
 from mbinspect.piles import Design, locate_piles  # noqa: E402
 from mbinspect.plan import plan_survey, structure_frame  # noqa: E402
-from mbinspect.plan.layouts import Layout, at_speed, candidates, with_both_ways  # noqa: E402
+from mbinspect.plan.layouts import (  # noqa: E402
+    Layout,
+    at_speed,
+    candidates,
+    with_both_ways,
+    with_tops_both_ways,
+)
 from mbinspect.plan.options import PlanOptions  # noqa: E402
 from mbinspect.plan.run import design_piles  # noqa: E402
 from mbinspect.simulate import simulate  # noqa: E402
@@ -68,16 +75,18 @@ def _design(preset: str) -> Design:
 
 
 def named_layout(frame: Any, name: str) -> Layout:
-    """The candidate layout called ``name`` (``hash-4.5+tops``, with ``x2`` for both ways and
-    ``@2kn`` for a slower speed)."""
+    """The candidate layout called ``name`` (``hash-4.5+tops``, with ``x2`` for both ways,
+    ``2way`` for the lines over the tops both ways, and ``@2kn`` for a slower speed)."""
     base, _, pace = name.partition("@")
-    both = base.endswith("x2")
-    base = base.removesuffix("x2")
+    both, tops_both = base.endswith("x2"), base.endswith("2way")
+    base = base.removesuffix("x2").removesuffix("2way")
     offset = float(base.split("-")[1].split("+")[0]) if "-" in base else 10.0
     found = {c.name: c for c in candidates(frame, offsets=(offset,), margin=20.0)}
     if base not in found:
         sys.exit(f"--layout: {name!r} is not a candidate; expected one of {', '.join(sorted(found))}")
     layout = with_both_ways(found[base]) if both else found[base]
+    if tops_both:
+        layout = with_tops_both_ways(found[base]) or sys.exit(f"--layout: {base!r} has no line over the tops")
     return at_speed(layout, float(pace.removesuffix("kn"))) if pace else layout
 
 

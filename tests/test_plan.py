@@ -18,7 +18,15 @@ from mbinspect.io import PointCloud
 from mbinspect.piles import Design
 from mbinspect.plan import PlanOptions, PlanResult, design_piles, ping_rate, plan_survey, structure_frame
 from mbinspect.plan.check import _sides
-from mbinspect.plan.layouts import KNOT, Layout, PlanLine, at_speed, candidates, with_both_ways
+from mbinspect.plan.layouts import (
+    KNOT,
+    Layout,
+    PlanLine,
+    at_speed,
+    candidates,
+    with_both_ways,
+    with_tops_both_ways,
+)
 from mbinspect.plan.predict import Setting, as_built_lean, run_trial
 from mbinspect.simulate import named_sonar
 
@@ -50,6 +58,27 @@ def test_the_frame_and_layouts_follow_the_design_turned_any_way():
     assert abs((both.lines[1].heading - both.lines[0].heading) % 360 - 180) < 1e-6
     # time on site: the lines at speed, a turn between two
     assert hash_.time_on_site(2.0, 100.0) == pytest.approx(4 * 62.0 / 2.0 + 3 * 100.0)
+
+
+def test_the_lines_over_the_tops_sailed_both_ways_and_the_rest_once():
+    f = structure_frame(np.array(list(SQUARE.positions.values())), radius=0.75)
+    lays = {c.name: c for c in candidates(f, offsets=(10.0,), margin=20.0)}
+    plus = at_speed(lays["hash-10+tops"], 2.0)
+    tops2 = with_tops_both_ways(plus)
+    assert tops2 is not None and tops2.name == "hash-10+tops2way@2kn" and tops2.speed == plus.speed
+    assert len(tops2.lines) == 8 and sum(tops2.over_tops) == 4
+    over = [ln for ln, t in zip(tops2.lines, tops2.over_tops, strict=True) if t]
+    # each line over a row of tops followed by itself reversed; each runs over a row of piles
+    for a, b in zip(over[::2], over[1::2], strict=True):
+        assert b.start == a.end and abs((b.heading - a.heading) % 360 - 180) < 1e-6
+        d = np.subtract(a.end, a.start)
+        assert min(abs(d[0] * (y - a.start[1]) - d[1] * (x - a.start[0])) / a.length
+                   for x, y in SQUARE.positions.values()) < 1e-6
+    # the '#' lines once, in the order they were
+    assert [ln for ln, t in zip(tops2.lines, tops2.over_tops, strict=True) if not t] == list(plus.lines[:4])
+    # a layout with no line over the tops, or only such lines, has no such step
+    assert with_tops_both_ways(lays["hash-10"]) is None and with_tops_both_ways(lays["tops"]) is None
+    assert sum(with_both_ways(plus).over_tops) == 4
 
 
 def test_a_wharf_gets_lines_across_each_jacket():

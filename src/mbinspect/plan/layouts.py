@@ -27,7 +27,7 @@ import numpy as np
 from ..geometry import bearing_to_vector, min_area_rectangle, vector_to_bearing
 
 __all__ = ["Frame", "Layout", "PlanLine", "at_speed", "candidates", "racetrack", "offsets_for",
-           "structure_frame", "with_both_ways"]
+           "structure_frame", "with_both_ways", "with_tops_both_ways"]
 
 #: One knot in m/s.
 KNOT = 1852.0 / 3600.0
@@ -63,13 +63,15 @@ class PlanLine:
 
 @dataclass(frozen=True)
 class Layout:
-    """A candidate: its name, what it is in words, its lines in the order sailed, and the speed
-    (m/s) they are sailed at when it is not the plan's (:func:`at_speed`)."""
+    """A candidate: its name, what it is in words, its lines in the order sailed, the speed
+    (m/s) they are sailed at when it is not the plan's (:func:`at_speed`), and which of its
+    lines run over a row of tops (one flag per line; empty: none)."""
 
     name: str
     description: str
     lines: tuple[PlanLine, ...]
     speed: float | None = None
+    over_tops: tuple[bool, ...] = ()
 
     def time_on_site(self, speed: float, turn_s: float) -> float:
         """Seconds on site: every line at the layout's speed, else ``speed`` (m/s), and a turn
@@ -182,10 +184,10 @@ def candidates(f: Frame, *, offsets: Sequence[float], margin: float) -> list[Lay
     tops_u = [_along(f, b, margin, True) for b in f.rows]
     tops_v = [_across(f, a, margin, True) for a in f.columns]
     out = [Layout("tops", f"{len(tops_u)} lines over the rows of tops, along the structure",
-                  racetrack(tops_u))]
+                  racetrack(tops_u), over_tops=(True,) * len(tops_u))]
     if len(f.columns) > 1 and len(f.rows) > 1:
         out.append(Layout("tops-grid", f"{len(tops_u) + len(tops_v)} lines over the rows and columns of tops",
-                          racetrack(tops_u + tops_v)))
+                          racetrack(tops_u + tops_v), over_tops=(True,) * len(tops_u + tops_v)))
     for o in offsets:
         along = [_along(f, -f.half_v - o, margin, True), _along(f, f.half_v + o, margin, False)]
         across = [_across(f, a, margin, True) for a in _across_at(f, o)]
@@ -198,7 +200,8 @@ def candidates(f: Frame, *, offsets: Sequence[float], margin: float) -> list[Lay
             Layout(f"hash-{o:g}", f"the '#': {len(along + across)} lines {o:g} m outside the piles",
                    racetrack(along + across)),
             Layout(f"hash-{o:g}+tops", f"the '#' at {o:g} m and {len(tops_u)} lines over the rows of tops",
-                   racetrack(along + across + tops_u)),
+                   racetrack(along + across + tops_u),
+                   over_tops=(False,) * len(along + across) + (True,) * len(tops_u)),
         ]
     return out
 
@@ -210,7 +213,30 @@ def with_both_ways(layout: Layout) -> Layout:
         lines += [line, line.reversed()]
     base, at, pace = layout.name.partition("@")
     return Layout(f"{base}x2{at}{pace}", layout.description + ", each line sailed both ways", tuple(lines),
-                  layout.speed)
+                  layout.speed, tuple(t for t in layout.over_tops for _ in (0, 1)))
+
+
+def with_tops_both_ways(layout: Layout) -> Layout | None:
+    """The layout with each line over a row of tops sailed a second time on the reciprocal
+    heading, the others once (None when it has no line over the tops, or has them all): a
+    step between a layout and :func:`with_both_ways`, for fewer lines and turns.
+
+    >>> f = structure_frame(np.array([[0.0, 0.0], [22.0, 0.0], [0.0, 22.0], [22.0, 22.0]]), radius=0.75)
+    >>> lay = next(c for c in candidates(f, offsets=(8.5,), margin=20.0) if c.name == "hash-8.5+tops")
+    >>> both = with_tops_both_ways(at_speed(lay, 2.0))
+    >>> both.name, len(lay.lines), len(both.lines), sum(both.over_tops)
+    ('hash-8.5+tops2way@2kn', 6, 8, 4)
+    """
+    if not any(layout.over_tops) or all(layout.over_tops):
+        return None
+    lines: list[PlanLine] = []
+    flags: list[bool] = []
+    for line, top in zip(layout.lines, layout.over_tops, strict=True):
+        lines += [line, line.reversed()] if top else [line]
+        flags += [top, top] if top else [top]
+    base, at, pace = layout.name.partition("@")
+    return Layout(f"{base}2way{at}{pace}", layout.description + ", the lines over the tops sailed both ways",
+                  tuple(lines), layout.speed, tuple(flags))
 
 
 def at_speed(layout: Layout, knots: float) -> Layout:
@@ -222,4 +248,4 @@ def at_speed(layout: Layout, knots: float) -> Layout:
     ('hash-8.5@2kn', 97)
     """
     return Layout(f"{layout.name}@{knots:g}kn", f"{layout.description}, sailed at {knots:g} kn", layout.lines,
-                  knots * KNOT)
+                  knots * KNOT, layout.over_tops)

@@ -100,7 +100,9 @@ class Prediction:
                 "surveys": self.surveys, "calibration": self.calibration,
                 "scatter": self.scatter, "sigma_error": self.sigma_error,
                 "speed_kn": self.layout.speed / KNOT if self.layout.speed else None,
-                "lines": [{"line": k + 1, **ln.to_dict()} for k, ln in enumerate(self.layout.lines)],
+                "lines": [{"line": k + 1, **ln.to_dict(),
+                           "over_tops": bool(self.layout.over_tops and self.layout.over_tops[k])}
+                          for k, ln in enumerate(self.layout.lines)],
                 "predicted": [s.to_dict() for s in self.spacings],
                 "levels": [{"id": i, "sigma": s} for i, s in self.tops],
                 "unseen_sides": [{"id": i, "sectors": list(s)} for i, s in self.unseen],
@@ -109,8 +111,9 @@ class Prediction:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Prediction:
         speed = d.get("speed_kn")
+        flags = tuple(bool(ln.get("over_tops", False)) for ln in d["lines"])
         layout = Layout(d["name"], d["description"], tuple(PlanLine.from_dict(ln) for ln in d["lines"]),
-                        float(speed) * KNOT if speed else None)
+                        float(speed) * KNOT if speed else None, flags if any(flags) else ())
         return cls(layout, float(d["time_on_site_s"]),
                    tuple(PredictedSpacing.from_dict(s) for s in d["predicted"]),
                    tuple((int(t["id"]), null_as_nan(t["sigma"])) for t in d["levels"]),

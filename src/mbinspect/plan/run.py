@@ -16,7 +16,15 @@ from ..piles import Design, read_design
 from ..reefs.plan import ReefPlan
 from ..simulate import named_sonar
 from ..version import __version__
-from .layouts import Layout, at_speed, candidates, offsets_for, structure_frame, with_both_ways
+from .layouts import (
+    Layout,
+    at_speed,
+    candidates,
+    offsets_for,
+    structure_frame,
+    with_both_ways,
+    with_tops_both_ways,
+)
 from .options import KNOT, PlanOptions, ping_rate
 from .pool import run_trials, ticker
 from .predict import SECTORS, DesignPile, Setting, Trial, pairs_of, run_trial
@@ -29,8 +37,8 @@ __all__ = ["plan_survey", "plan_input", "design_piles", "ping_rate"]
 #: A side with fewer soundings than this per survey counts as one no beam reaches.
 SEEN_MIN = 5
 
-#: Layouts sailed both ways are tried for this many of the best one-way layouts when none of
-#: those meets the target.
+#: Layouts with their lines over the tops sailed both ways, then with every line sailed both
+#: ways, are tried for this many of the best one-way layouts when none of those meets the target.
 BOTH_WAYS = 2
 
 
@@ -260,7 +268,9 @@ class _Search:
 
 def _choose(search: _Search, layouts: list[Layout], given: bool) -> Prediction | None:
     """The layout that meets the target in the least time: among ``layouts`` each surveyed
-    ``seeds`` times when ``given``, else screened, then the best two sailed both ways if none does."""
+    ``seeds`` times when ``given``, else screened; if none does, the best two with their lines
+    over the tops sailed both ways, and with all their lines sailed both ways, screened
+    together (the fewer lines first)."""
     if given:
         search.run(layouts, search.seeds()[:search.options.seeds])
         meeting = [p for p in (search.firm(lay.name) for lay in layouts) if p.meets_target]
@@ -269,7 +279,9 @@ def _choose(search: _Search, layouts: list[Layout], given: bool) -> Prediction |
     if chosen is None:  # the best few sailed both ways
         now = [search.prediction(n) for n in search.layouts]
         best = sorted(now, key=lambda p: (p.worst_sigma, p.time_on_site_s))[:BOTH_WAYS]
-        chosen = search.screen_then_confirm([with_both_ways(p.layout) for p in best])
+        tops = [with_tops_both_ways(p.layout) for p in best]
+        chosen = search.screen_then_confirm([t for t in tops if t is not None]
+                                            + [with_both_ways(p.layout) for p in best])
     return chosen
 
 
