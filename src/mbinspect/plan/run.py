@@ -328,8 +328,9 @@ def plan_survey(design: Design | ReefPlan | str | Path, options: PlanOptions | N
     chosen meets ``target_sigma`` for every spacing, at the upper 1-sigma bound of the
     estimate (:attr:`~mbinspect.plan.results.Prediction.worst_upper`), in the least time
     on site; when no one-way layout
-    does, the best two are tried sailed both ways; when still none does, the one with the
-    smallest worst spacing 1-sigma is chosen and a warning says so.
+    does, the best two are tried with their lines over the tops sailed both ways and with
+    every line sailed both ways; when still none does, the one with the smallest worst
+    spacing 1-sigma is chosen and a warning says so.
 
     Parameters
     ----------
