@@ -68,7 +68,7 @@ def cast_cones(beam: Beam, targets: list[Target], o: np.ndarray, d: np.ndarray, 
     shape = (len(o), s)
     r0 = above / np.minimum(np.einsum("ij,ij->i", d, plane_normal), -1e-9)
     half = window(beam, r0, -np.einsum("ij,ij->i", d, plane_normal))
-    cos_plane = np.clip(-np.einsum("ij,ij->i", dirs, np.repeat(plane_normal, s, axis=0)), 0.0, 1.0)
+    cos_plane = np.clip(-den, 0.0, 1.0)  # den: each sub-ray against its plane, before any object
     cos_inc = np.clip(-np.einsum("ij,ij->i", dirs, normal), 0.0, 1.0)
     energy = echo_energy(beam, 10 ** (bs / 10), cos_inc)
     seen = detect(t.reshape(shape), energy.reshape(shape), cos_inc.reshape(shape), beam, modes, half)

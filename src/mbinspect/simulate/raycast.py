@@ -133,12 +133,14 @@ def _box_target(box: Box, kind: int, ident: int, material: str) -> Target:
 def _spans(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each ray's plan extent between the highest target's top and ``t``: x0, x1, y0, y1."""
-    p = o + t[:, None] * d
     ztop = max(tg.top for tg in targets)
     t_top = np.clip((ztop - o[:, 2]) / d[:, 2], 0.0, None)
-    q = o + np.minimum(t_top, t)[:, None] * d
-    return (np.minimum(q[:, 0], p[:, 0]), np.maximum(q[:, 0], p[:, 0]),
-            np.minimum(q[:, 1], p[:, 1]), np.maximum(q[:, 1], p[:, 1]))
+    tq = np.minimum(t_top, t)
+    out = []
+    for k in (0, 1):  # plan only: the same arithmetic as o + t * d, column by column
+        p, q = o[:, k] + t * d[:, k], o[:, k] + tq * d[:, k]
+        out += [np.minimum(q, p), np.maximum(q, p)]
+    return out[0], out[1], out[2], out[3]
 
 
 def rays_near(targets: list[Target], o: np.ndarray, d: np.ndarray, t: np.ndarray, spread: float
