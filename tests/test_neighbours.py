@@ -58,6 +58,36 @@ def test_count_within_is_the_trees(extent):
         assert np.array_equal(count_within(cells, local, radius, 40, strict=False), want)
 
 
+@pytest.mark.parametrize("plan", [False, True])
+def test_a_few_soundings_far_apart_are_searched_pair_by_pair_and_as_the_tree(plan, monkeypatch):
+    """A tile of a deep survey: 40 soundings tens of metres apart in cells sized for shallow
+    water (a ring search would visit every empty cell between them); every pair is taken at
+    once, with the tree's answers, to the bit, and the rings' too."""
+    p = _cloud(40, 600.0, 5)
+    cells = Cells.build(p, 0.2)
+    assert not cells.dense and neighbours._few(cells, p)
+    tree = cKDTree(p[:, :2] if plan else p)
+    rng = np.random.default_rng(6)
+    q = np.vstack([p, p[:20] + rng.normal(0, 50.0, (20, 3))])
+    got = {}
+    for rings in (False, True):
+        if rings:  # the ring searches on the same (small) problem: the same answers
+            monkeypatch.setattr(neighbours, "FEW_PAIRS", -1)
+            cells = Cells.build(p, 5.0)
+        got[rings] = [kth_distance(cells, q, k, plan=plan) for k in (1, 3, 40)] + [
+            count_within(cells, q, r, 5, plan=plan) for r in (30.0, 80.0)] + [
+            count_within(cells, q, np.full(len(q), 80.0), 50, strict=False, plan=plan)]
+    for k, got_k in zip((1, 3, 40), got[False][:3], strict=True):
+        want = tree.query(q[:, :2] if plan else q, k=k)[0]
+        assert np.array_equal(got_k, want[:, -1] if want.ndim == 2 else want)
+    for r, got_r in zip((30.0, 80.0), got[False][3:5], strict=True):
+        d = tree.query(q[:, :2] if plan else q, k=5, distance_upper_bound=r)[0]
+        assert np.array_equal(got_r, np.isfinite(d).sum(axis=1))
+    for a, b in zip(got[False], got[True], strict=True):
+        assert np.array_equal(a, b)
+    assert kth_distance(cells, q, 41, plan=plan).tolist() == [np.inf] * len(q)
+
+
 def test_edges():
     p = _cloud(30, 3.0, 5)
     cells = Cells.build(p, 0.5)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -110,6 +110,12 @@ def count_within(cells: Cells, at: np.ndarray, radius: np.ndarray | float, cap: 
     r = np.ascontiguousarray(np.broadcast_to(radius, (len(q),)), dtype=np.float64)
     if len(q) == 0 or len(cells.xyz) == 0:
         return np.zeros(len(q), np.int64)
+    if _few(cells, q):
+        dims = 2 if plan else cells.xyz.shape[1]
+        with np.errstate(invalid="ignore"):
+            return np.concatenate([np.minimum(np.count_nonzero(
+                d2 < (r[a:b, None] ** 2) if strict else np.sqrt(d2) <= r[a:b, None], axis=1), int(cap))
+                for a, b, d2 in _pair_distances(cells, q, dims)])
     args = cells._args(plan)
     return _split(lambda a, b: _count_within(q[a:b], r[a:b], int(cap), bool(strict), *args), len(q))
 
@@ -121,8 +127,36 @@ def kth_distance(cells: Cells, at: np.ndarray, k: int, *, plan: bool = False) ->
     q = np.ascontiguousarray(at, dtype=np.float64)
     if len(q) == 0 or len(cells.xyz) < k or k < 1:
         return np.full(len(q), math.inf)
+    if _few(cells, q):
+        dims = 2 if plan else cells.xyz.shape[1]
+        return np.concatenate([np.sqrt(np.partition(d2, k - 1, axis=1)[:, k - 1])
+                               for _, _, d2 in _pair_distances(cells, q, dims)])
     args = cells._args(plan)
     return _split(lambda a, b: _kth_distance(q[a:b], int(k), *args), len(q))
+
+
+#: Pairs of points and soundings a search of a sparse index takes all at once: in a tile
+#: of a deep survey, a few soundings tens of metres apart over cells sized for shallow
+#: water, a ring search visits every empty cell between them.
+FEW_PAIRS = 1 << 20
+
+
+def _few(cells: Cells, q: np.ndarray) -> bool:
+    """Whether every pair is cheaper than the rings: an index mostly of empty cells, few pairs."""
+    return not cells.dense and len(q) * len(cells.xyz) <= FEW_PAIRS
+
+
+def _pair_distances(cells: Cells, q: np.ndarray, dims: int) -> Iterator[tuple[int, int, np.ndarray]]:
+    """``(a, b, d2)``: the squared distances (summed as the ring searches sum them) of the
+    points ``a:b`` to every sounding, in blocks of queries."""
+    step = max(1, (1 << 16) // max(len(cells.xyz), 1))
+    for a in range(0, len(q), step):
+        b = min(a + step, len(q))
+        d2 = np.zeros((b - a, len(cells.xyz)))
+        for c in range(dims):
+            u = cells.xyz[None, :, c] - q[a:b, c, None]
+            d2 += u * u
+        yield a, b, d2
 
 
 def nearest_within(cells: Cells, at: np.ndarray, reach: float, tie: float = 0.0, *, plan: bool = False
