@@ -206,14 +206,24 @@ def candidates(f: Frame, *, offsets: Sequence[float], margin: float) -> list[Lay
     return out
 
 
+def _sailed_again(layout: Layout, again: Sequence[bool], suffix: str, said: str) -> Layout:
+    """The layout with each line marked in ``again`` followed by itself on the reciprocal
+    heading (the others once), named with ``suffix`` before its speed and described with
+    ``said``; its flags of lines over the tops kept line by line."""
+    lines: list[PlanLine] = []
+    flags: list[bool] = []
+    tops = layout.over_tops or (False,) * len(layout.lines)
+    for line, top, twice in zip(layout.lines, tops, again, strict=True):
+        lines += [line, line.reversed()] if twice else [line]
+        flags += [top] * (2 if twice else 1)
+    base, at, pace = layout.name.partition("@")
+    return Layout(f"{base}{suffix}{at}{pace}", layout.description + said, tuple(lines), layout.speed,
+                  tuple(flags) if layout.over_tops else ())
+
+
 def with_both_ways(layout: Layout) -> Layout:
     """The layout with every line sailed a second time on the reciprocal heading."""
-    lines: list[PlanLine] = []
-    for line in layout.lines:
-        lines += [line, line.reversed()]
-    base, at, pace = layout.name.partition("@")
-    return Layout(f"{base}x2{at}{pace}", layout.description + ", each line sailed both ways", tuple(lines),
-                  layout.speed, tuple(t for t in layout.over_tops for _ in (0, 1)))
+    return _sailed_again(layout, (True,) * len(layout.lines), "x2", ", each line sailed both ways")
 
 
 def with_tops_both_ways(layout: Layout) -> Layout | None:
@@ -229,14 +239,7 @@ def with_tops_both_ways(layout: Layout) -> Layout | None:
     """
     if not any(layout.over_tops) or all(layout.over_tops):
         return None
-    lines: list[PlanLine] = []
-    flags: list[bool] = []
-    for line, top in zip(layout.lines, layout.over_tops, strict=True):
-        lines += [line, line.reversed()] if top else [line]
-        flags += [top, top] if top else [top]
-    base, at, pace = layout.name.partition("@")
-    return Layout(f"{base}2way{at}{pace}", layout.description + ", the lines over the tops sailed both ways",
-                  tuple(lines), layout.speed, tuple(flags))
+    return _sailed_again(layout, layout.over_tops, "2way", ", the lines over the tops sailed both ways")
 
 
 def at_speed(layout: Layout, knots: float) -> Layout:
