@@ -75,3 +75,36 @@ def test_told_the_beam_rocks_stay_rocks():
     assert not any(np.hypot(*(rocks - [r.x, r.y]).T).min() < 1.0 for r in res.reefs)
     as_heard = [o for o in res.others if "as heard through the beam" in o.reason]
     assert as_heard and all(np.hypot(*(rocks - [o.x, o.y]).T).min() < 1.0 for o in as_heard)
+
+
+def test_told_the_beam_debris_stays_small_and_flat_tops_stay_level():
+    # through 1 deg cones at 17 m, debris blooms past `min_area` and was kept as reefs once its
+    # bloom was taken off (3 of 12 here); outer beams sound a cross's flat top up to 0.4 m high,
+    # which lifted its top (0.43 m too tall)
+    sim = simulate("reef-field", seed=1, per_group=9, groups="cross1", beam_across_deg=1.0, close_pairs=0,
+                   touching_pairs=0, boulders=0, debris=12)
+    truth = sim.truth["reefs"]
+    ref = (np.array([[t["x"], t["y"]] for t in truth]), tuple(t["id"] for t in truth))
+    res = extract_reefs(sim.cloud, reference=ref, beam_correction=True, beam_width_deg=1.0)
+    assert res.evaluation.tp == len(truth) and res.evaluation.fp == 0
+    debris = np.array([[d["x"], d["y"]] for d in sim.truth["distractors"] if d["kind"] == "debris"])
+    small = [o for o in res.others if o.reason.startswith("smaller than `min_area`")
+             and np.hypot(*(debris - [o.x, o.y]).T).min() < 1.0]
+    assert len(small) >= 8  # the others too low to stand out of the seabed
+    errors = np.array([res.reefs[i].height - truth[j]["height"] for i, j, _ in res.evaluation.matches])
+    assert np.abs(errors).max() < 0.1
+
+
+def test_told_the_beam_a_dense_field_at_25_m_is_neither_rough_ground_nor_rocks():
+    # the study's rocks among cubes through 1 deg cones: the mixed echoes on a cross group's
+    # flanks made it "rough terrain" (18 reefs lost), and outer beams sounding flat tops high
+    # made 23 cubes, crosses and hollow squares look rounded; 20 rocks must stay rocks
+    sim = simulate("reef-field", seed=0, groups="cross2,cube,hollow", seabed=-25.0, rocks=20, burial_max=0.5,
+                   beam_across_deg=1.0)
+    truth = sim.truth["reefs"]
+    ref = (np.array([[t["x"], t["y"]] for t in truth]), tuple(t["id"] for t in truth))
+    res = extract_reefs(sim.cloud, reference=ref, beam_correction=True, beam_width_deg=1.0)
+    assert res.filters["rough_terrain"]["excluded_area"] == 0
+    assert res.evaluation.tp >= len(truth) - 1 and res.evaluation.fp <= 1
+    rocks = np.array([[d["x"], d["y"]] for d in sim.truth["distractors"] if d["kind"] == "rock"])
+    assert not any(np.hypot(*(rocks - [r.x, r.y]).T).min() < 1.0 for r in res.reefs)

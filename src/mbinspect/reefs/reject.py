@@ -30,6 +30,7 @@ from .results import OtherObject, Reef
 from .shape import (
     DOME_PLATEAU,
     GroundSoundings,
+    beam_weights,
     cell_soundings,
     dome_shape,
     line_levels,
@@ -88,6 +89,9 @@ class Context:
         Each sounding's ping and survey line, when the file gives them.
     ground : GroundSoundings, optional
         The seabed soundings (:func:`~mbinspect.reefs.shape.ground_soundings`).
+    reach : ndarray, shape (N,), optional
+        Told the beam, how far each sounding's cone may sound it high or low
+        (:func:`~mbinspect.reefs.shape.cone_reach`): its weight in a top's shape.
     """
 
     points: np.ndarray
@@ -96,6 +100,7 @@ class Context:
     ping: np.ndarray | None = None
     line: np.ndarray | None = None
     ground: GroundSoundings | None = None
+    reach: np.ndarray | None = None
 
 
 #: A rule: why a candidate is not a reef, or None.
@@ -198,8 +203,9 @@ def _surface_shape(cells: np.ndarray, reef: Reef, ctx: Context
     z = points[idx, 2] - reef.z_seabed
     if ctx.line is not None and ctx.ground is not None:
         z = z - line_levels(points[idx], ctx.line[idx], ctx.ground)
-    misfit, drop = dome_shape(points[idx, :2], z, across)
-    spread, plateau = rounded_shape(z)
+    w = None if ctx.reach is None else beam_weights(ctx.reach[idx], reef.height)
+    misfit, drop = dome_shape(points[idx, :2], z, across, w)
+    spread, plateau = rounded_shape(z, w)
     return misfit, drop, spread, plateau, across
 
 

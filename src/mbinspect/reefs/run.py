@@ -142,7 +142,8 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     lap("resolution check")
     ground = screen_terrain(clean, local=local, seabed=opts.seabed, exclude_rough=opts.exclude_rough,
                             max_slope_deg=opts.max_slope_deg, max_roughness=opts.max_roughness,
-                            seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window)
+                            seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window,
+                            skirt=_bloom(clean, opts))
     warnings = notes + ([filter_note] if filter_note else []) + list(ground.warnings)
     if ground.report is not None:
         filters["rough_terrain"] = ground.report
@@ -180,6 +181,15 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
     return result if plan is None else place_reefs(result, plan, tolerance=opts.placement_tolerance,
                                                    position_sigma=opts.position_sigma,
                                                    bearing_sigma_deg=opts.bearing_sigma_deg)
+
+
+def _bloom(pts: np.ndarray, opts: ReefOptions) -> float:
+    """How far (m, in plan) a wide beam's echo of an object reaches past its edge: a
+    footprint at the median depth with the beam correction on (along the track the bloom
+    stands up to 0.85 of one), else 0."""
+    if not opts.beam_correction:
+        return 0.0
+    return abs(float(np.median(pts[:, 2]))) * math.tan(math.radians(opts.beam_width_deg))
 
 
 def _laps(times: StageTimes | None) -> Callable[[str], None]:

@@ -16,9 +16,9 @@ from ..neighbours import Cells
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 
-__all__ = ["rounded_shape", "dome_shape", "ground_soundings", "GroundSoundings", "line_levels", "thickness",
-           "cell_soundings", "PLATEAU_DEPTH", "TOP_SHARE", "DOME_BASE", "DOME_PLATEAU", "LEVEL_MARGIN",
-           "LEVEL_MIN"]
+__all__ = ["rounded_shape", "dome_shape", "beam_weights", "cone_reach", "weighted_percentile",
+           "ground_soundings", "GroundSoundings", "line_levels", "thickness", "cell_soundings",
+           "PLATEAU_DEPTH", "TOP_SHARE", "DOME_BASE", "DOME_PLATEAU", "LEVEL_MARGIN", "LEVEL_MIN"]
 
 
 #: Share of a candidate's height counted as its top (``rounded_plateau``), and the share of
@@ -27,9 +27,10 @@ PLATEAU_DEPTH = 0.15
 TOP_SHARE = 0.3
 
 
-def rounded_shape(height: np.ndarray) -> tuple[float, float]:
+def rounded_shape(height: np.ndarray, weight: np.ndarray | None = None) -> tuple[float, float]:
     """How rounded a candidate is, from the heights of its surface (one per footprint cell,
-    or per sounding) above one level.
+    or per sounding) above one level; given ``weight`` (each height's, :func:`beam_weights`),
+    every share and percentile is taken by weight.
 
     Returns
     -------
@@ -52,10 +53,57 @@ def rounded_shape(height: np.ndarray) -> tuple[float, float]:
     h = np.asarray(height, np.float64)
     if len(h) < 10:
         return math.nan, math.nan
+    if weight is not None:
+        w = np.asarray(weight, np.float64)
+        top = weighted_percentile(h, w, 95)
+        sel = h >= weighted_percentile(h, w, 100 * (1 - TOP_SHARE))
+        high, wh = h[sel], w[sel]
+        spread = (weighted_percentile(high, wh, 90) - weighted_percentile(high, wh, 10)) / top
+        return spread, float(np.sum(w[h >= (1 - PLATEAU_DEPTH) * top]) / np.sum(w))
     top = float(np.percentile(h, 95))
     high = h[h >= np.percentile(h, 100 * (1 - TOP_SHARE))]
     spread = float(np.percentile(high, 90) - np.percentile(high, 10)) / top
     return spread, float(np.mean(h >= (1 - PLATEAU_DEPTH) * top))
+
+
+def weighted_percentile(values: np.ndarray, weight: np.ndarray, q: float) -> float:
+    """The ``q``-th percentile of ``values`` counted by ``weight`` (each value standing at
+    the middle of its weight; equal weights give NumPy's ``"hazen"`` percentile).
+
+    >>> round(weighted_percentile(np.array([0.0, 1.0, 5.0]), np.array([1.0, 1.0, 0.01]), 50), 3)
+    0.505
+    """
+    order = np.argsort(values, kind="stable")
+    v, w = values[order], weight[order]
+    at = (np.cumsum(w) - w / 2) / np.sum(w)
+    return float(np.interp(q / 100, at, v))
+
+
+def cone_reach(points: np.ndarray, origins: np.ndarray, beam_width_deg: float) -> np.ndarray:
+    """How far (m) a beam of ``beam_width_deg`` may sound each of ``points`` above or below
+    the surface it heard.
+
+    A detection places the echo on the beam's axis at the range it heard; an echo from the
+    cone's edge at that range stands higher or lower than the axis by up to the plan
+    distance from the transducer (``origins``) times the tangent of half the beam: 0.15 m
+    at 45° and 17 m for a 1° beam, under 1 cm at nadir. So an outer beam over a reef's flat
+    top can sound it that much high. Unknown transducers (NaN) count as at nadir.
+    """
+    reach = np.hypot(*(points[:, :2] - origins[:, :2]).T) * math.tan(math.radians(beam_width_deg) / 2)
+    return np.nan_to_num(reach, nan=0.0)
+
+
+def beam_weights(reach: np.ndarray, height: float) -> np.ndarray:
+    """Each sounding's weight in the shape of a top ``height`` m tall, from its cone's
+    :func:`cone_reach`: whole while the cone cannot move it by more than half the plateau's
+    depth (:data:`PLATEAU_DEPTH`), then falling as the square of the reach beyond that. A
+    sounding whose cone reaches farther cannot show whether a top is flat.
+
+    >>> beam_weights(np.array([0.0, 0.08, 0.24]), 1.1).round(2)
+    array([1.  , 0.52, 0.11])
+    """
+    scale = PLATEAU_DEPTH * max(height, 0.0) / 2
+    return scale**2 / np.maximum(scale**2 + reach**2, 1e-12)
 
 
 #: Share of a candidate's height above which its soundings are its upper part (:func:`dome_shape`),
@@ -66,7 +114,8 @@ DOME_BASE = 0.3
 DOME_PLATEAU = 0.6
 
 
-def dome_shape(xy: np.ndarray, z: np.ndarray, across: float) -> tuple[float, float]:
+def dome_shape(xy: np.ndarray, z: np.ndarray, across: float, weight: np.ndarray | None = None
+               ) -> tuple[float, float]:
     """How much a candidate is a dome: a quadratic surface fitted to its upper soundings
     (above :data:`DOME_BASE` of its top, the 95th percentile of ``z``).
 
@@ -78,6 +127,8 @@ def dome_shape(xy: np.ndarray, z: np.ndarray, across: float) -> tuple[float, flo
         Heights (m) above the seabed.
     across : float
         The width (m) of its thickest part (:func:`thickness`).
+    weight : ndarray, shape (N,), optional
+        Each sounding's weight (:func:`beam_weights`): its top and fit taken by weight.
 
     Returns
     -------
@@ -99,14 +150,19 @@ def dome_shape(xy: np.ndarray, z: np.ndarray, across: float) -> tuple[float, flo
     >>> [abs(round(v, 2)) for v in dome_shape(disc, np.ones(len(disc)), 2.0)]  # a flat top
     [0.0, 0.0]
     """
-    top = float(np.percentile(z, 95))
+    top = float(np.percentile(z, 95)) if weight is None else weighted_percentile(z, weight, 95)
     up = z >= DOME_BASE * top
     if up.sum() < 10 or top <= 0:
         return math.nan, math.nan
     p = xy[up] - xy[up].mean(axis=0)
     design = np.column_stack([np.ones(len(p)), p, p**2, p[:, 0] * p[:, 1]])
-    coef, *_ = np.linalg.lstsq(design, z[up], rcond=None)
-    misfit = float(np.sqrt(np.mean((z[up] - design @ coef) ** 2))) / top
+    if weight is None:
+        coef, *_ = np.linalg.lstsq(design, z[up], rcond=None)
+        misfit = float(np.sqrt(np.mean((z[up] - design @ coef) ** 2))) / top
+    else:
+        root = np.sqrt(weight[up])
+        coef, *_ = np.linalg.lstsq(design * root[:, None], z[up] * root, rcond=None)
+        misfit = float(np.sqrt(np.sum(weight[up] * (z[up] - design @ coef) ** 2) / np.sum(weight[up]))) / top
     hessian = np.array([[2 * coef[3], coef[5]], [coef[5], 2 * coef[4]]])
     curvature = -float(np.linalg.eigvalsh(hessian).min())  # the most downward, 1/m
     return misfit, curvature / 2 * (across / 2) ** 2 / top

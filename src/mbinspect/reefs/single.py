@@ -24,7 +24,7 @@ from .options import ReefOptions
 from .orient import overturned_unit, with_rest
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
 from .results import OtherObject, Reef
-from .shape import ground_soundings
+from .shape import cone_reach, ground_soundings
 from .split import split_reefs
 
 __all__ = ["reef_islands", "single_reefs", "ISLAND_GAP", "ISLAND_CELL"]
@@ -138,7 +138,8 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         Each reef's soundings: the reef points (rows of ``points``) in its footprint.
     """
     parts, small, raster, used_area, heard = _footprints(points, is_reef, height, options, view)
-    reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef) for p in parts]
+    reach = None if view is None else cone_reach(points, view.origins, view.beam.beam_across_deg)
+    reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef, reach=reach) for p in parts]
     designs = options.designs
     if designs:
         fits = [fit_reef_design(points, p, raster, is_reef, height, designs, reef_height=r.height)
@@ -147,20 +148,20 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         parts, fits, heights = join_by_design(points, parts, raster, is_reef, height, designs, fits,
                                               [r.height for r in reefs])
         # only the joined parts are new arrays: measure those again
-        reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef)
+        reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef, reach=reach)
                  for p in parts]
         fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights)
     free = reefs
     if designs:
         reefs = [with_design(r, f, designs) for r, f in zip(reefs, fits, strict=True)]
-    context = Context(points, is_reef, raster, ping, line,
-                      ground_soundings(points, is_reef, height, line) if line is not None else None)
-    clear = options.min_clearance
     ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
     noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
+    context = Context(points, is_reef, raster, ping, line,
+                      ground_soundings(points, is_reef, height, line) if line is not None else None, reach)
+    clear = options.min_clearance
     small_note = f"smaller than `min_area` {options.min_area:g} m²"
     others = [other_object(with_least_depth(measure_reef(points, p, raster, seabed, is_reef=is_reef,
-                                                         shape=False), m,
+                                                         shape=False, reach=reach), m,
                                             context, clear, noise), small_note)
               for p, m in zip(small, _members(points, is_reef, raster, small), strict=True)]
     kept, kept_members = [], []
@@ -212,7 +213,11 @@ def _footprints(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, opt
         bloomed = parts
         parts, raster = unbloom_parts(points, parts, raster, is_reef, height, view,
                                       min_height=options.min_height)
+        # what is left of a part under min_area was mostly bloom: a small object heard wide
+        least = options.min_area / raster.cell**2
+        small = small + [p for p in parts if len(p) < least]
         heard = {id(p): (p, b) for p, b in zip(parts, bloomed, strict=True) if len(p) < len(b)}
+        parts = [p for p in parts if len(p) >= least]
     return parts, small, raster, used_area, heard
 
 

@@ -11,6 +11,7 @@ from scipy import ndimage
 
 from ..checks import check_points, positive, within
 from ..grid import cell_index, coverage, fill_holes
+from ..neighbours import Cells, count_within
 from ..seabed import GridSurface, grid_seabed
 
 __all__ = ["TerrainMask", "rough_terrain", "Ground", "screen_terrain"]
@@ -56,15 +57,16 @@ BAND_TOP = 0.4
 
 def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float = 15.0,
                   max_roughness: float = 0.2, min_area: float = 100.0, margin: int = 2,
-                  surface: GridSurface | None = None, height: np.ndarray | None = None
-                  ) -> TerrainMask:
+                  surface: GridSurface | None = None, height: np.ndarray | None = None,
+                  skirt: float = 0.0) -> TerrainMask:
     """Steep or rough terrain: cells where the seabed itself is too steep or too rough.
 
     Both are measured on the robust local seabed surface (which sees through reefs, so a
     reef group is not "rough"): slope from the surface averaged over ``cell`` m; roughness
     the larger of the RMS of the surface about its 2 m Gaussian smoothing and the RMS of
     the soundings from 0.5 m below the surface to :data:`BAND_TOP` above it (rock relief
-    narrower than the opening). Patches are
+    narrower than the opening), leaving out those within ``skirt`` m in plan of a sounding
+    above that band (an object's flanks as a wide beam draws them). Patches are
     closed and filled, those smaller than ``min_area`` m² are kept (a lone steep cell is a
     sand-wave lee, not a shore), and the rest widened by ``margin`` cells. ``height`` may
     give the points' heights above ``surface`` when the caller has them.
@@ -87,6 +89,9 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
         The robust local seabed, when computed already.
     height : ndarray (N,), optional
         Heights above ``surface``.
+    skirt : float
+        Plan reach (m) of a wide beam's bloom round anything standing above the band: the
+        mixed echoes there are the object's, not rough ground (0: thin beams, none).
 
     Examples
     --------
@@ -123,6 +128,8 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     # too, near it (reef tops stand higher and drop out, rock relief does not)
     h = fine.height_above(pts) if height is None or surface is None else height
     near = (h >= -0.5) & (h <= BAND_TOP)
+    if skirt > 0:
+        near &= ~_skirts(pts, h, near, skirt)
     ci, cj = (v[near] for v in cell_index(pts, fine.x0, fine.y0, step))  # no copy of the rows
     ok = (ci >= 0) & (ci < nx // f) & (cj >= 0) & (cj < ny // f)
     key = ci[ok] * (ny // f) + cj[ok]
@@ -141,6 +148,18 @@ def rough_terrain(points: np.ndarray, *, cell: float = 2.0, max_slope_deg: float
     if margin > 0 and bad.any():
         bad = ndimage.binary_dilation(bad, structure=np.ones((3, 3), bool), iterations=margin)
     return TerrainMask(fine.x0, fine.y0, step, bad, slope, rough, max_slope_deg, max_roughness)
+
+
+def _skirts(pts: np.ndarray, h: np.ndarray, near: np.ndarray, skirt: float) -> np.ndarray:
+    """The soundings of ``near`` within ``skirt`` m in plan of a sounding standing above
+    :data:`BAND_TOP`."""
+    tall = h > BAND_TOP
+    out = np.zeros(len(pts), bool)
+    if tall.any() and near.any():
+        cells = Cells.build(np.compress(tall, pts[:, :2], axis=0), skirt)
+        rows = np.flatnonzero(near)
+        out[rows] = count_within(cells, pts[rows, :2], skirt, 1) > 0
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,7 +195,7 @@ class Ground:
 
 def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_rough: bool,
                    max_slope_deg: float, max_roughness: float, seabed_cell: float,
-                   seabed_window: float) -> Ground:
+                   seabed_window: float, skirt: float = 0.0) -> Ground:
     """The soundings on which reefs can be told from the seabed.
 
     Without a seabed in the cloud (under a quarter of the extent covered) terrain is not
@@ -190,6 +209,8 @@ def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_roug
         Soundings after the radius filter (m).
     local, seabed, exclude_rough, max_slope_deg, max_roughness, seabed_cell, seabed_window
         As :class:`~mbinspect.reefs.ReefOptions` (``local``: the method is ``"local"``).
+    skirt : float
+        As :func:`rough_terrain` (m).
 
     Examples
     --------
@@ -219,7 +240,7 @@ def screen_terrain(points: np.ndarray, *, local: bool, seabed: str, exclude_roug
     kept, region, report, mask = points, None, None, None
     if exclude_rough and local:
         region = rough_terrain(points, max_slope_deg=max_slope_deg, max_roughness=max_roughness,
-                               surface=grid, height=height)
+                               surface=grid, height=height, skirt=skirt)
         out = region.contains(points)
         report = {"n_removed": int(out.sum()), **region.to_dict()}
         if out.any():
