@@ -13,7 +13,7 @@ from ..seabed import GROUND_BAND
 from .footprint import Raster
 from .ground import Seabed
 from .results import Reef
-from .shape import beam_weights, weighted_percentile
+from .shape import weighted_percentile
 from .split import row_ends
 
 __all__ = ["measure_reef", "outline", "soundings_around", "own_soundings", "ring_seabed"]
@@ -145,7 +145,7 @@ def ring_seabed(points: np.ndarray, cj: np.ndarray, ci: np.ndarray, raster: Rast
 
 def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: Seabed, *,
                  reef_id: int = 0, is_reef: np.ndarray | None = None, shape: bool = True,
-                 reach: np.ndarray | None = None) -> Reef:
+                 sigma: np.ndarray | None = None) -> Reef:
     """Measure one reef from its raster cells and the soundings behind them.
 
     Centre: area centroid of the cells. Top: the median of the reef soundings within
@@ -175,11 +175,11 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
     shape : bool
         False leaves out the rectangle, the volumes and the outline (NaN, empty): what an
         object too small to be a reef is listed without.
-    reach : ndarray, shape (N,), optional
-        Told the beam, how far each sounding's cone may sound it high
-        (:func:`~mbinspect.reefs.shape.cone_reach`): the top's percentile and median are
-        then taken by weight (:func:`~mbinspect.reefs.shape.beam_weights`), so that outer
-        beams sounding a flat top high do not lift it.
+    sigma : ndarray, shape (N,), optional
+        Told the beam, each sounding's vertical 1σ: the seabed's noise with how far its
+        cone may sound it high or low (:func:`~mbinspect.reefs.shape.cone_reach`). The
+        top's percentile and median are then taken by inverse variance, so that outer
+        beams sounding a flat top high (by up to twice that reach) do not lift it.
 
     Examples
     --------
@@ -216,8 +216,8 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
         def local(qx: np.ndarray, qy: np.ndarray, _r=ring) -> np.ndarray:
             return 0.5 * (_r(qx, qy) + seabed.elevation(qx, qy))
     z_sea = float((local or seabed.elevation)(np.array([x]), np.array([y]))[0])
-    if reach is not None and len(pidx) >= 10 and np.isfinite(z).all():
-        w = beam_weights(reach[pidx], z_top - z_sea)
+    if sigma is not None and len(pidx) >= 10 and np.isfinite(z).all():
+        w = 1.0 / sigma[pidx] ** 2
         hi = weighted_percentile(z, w, 98)
         top = z >= hi - 0.25
         z_top = weighted_percentile(z[top], w[top], 50)

@@ -138,8 +138,11 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         Each reef's soundings: the reef points (rows of ``points``) in its footprint.
     """
     parts, small, raster, used_area, heard = _footprints(points, is_reef, height, options, view)
+    ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
+    noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
     reach = None if view is None else cone_reach(points, view.origins, view.beam.beam_across_deg)
-    reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef, reach=reach) for p in parts]
+    sigma = None if reach is None else np.hypot(noise or 0.05, reach)
+    reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef, sigma=sigma) for p in parts]
     designs = options.designs
     if designs:
         fits = [fit_reef_design(points, p, raster, is_reef, height, designs, reef_height=r.height)
@@ -148,20 +151,18 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         parts, fits, heights = join_by_design(points, parts, raster, is_reef, height, designs, fits,
                                               [r.height for r in reefs])
         # only the joined parts are new arrays: measure those again
-        reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef, reach=reach)
+        reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef, sigma=sigma)
                  for p in parts]
         fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights)
     free = reefs
     if designs:
         reefs = [with_design(r, f, designs) for r, f in zip(reefs, fits, strict=True)]
-    ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
-    noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
     context = Context(points, is_reef, raster, ping, line,
                       ground_soundings(points, is_reef, height, line) if line is not None else None, reach)
     clear = options.min_clearance
     small_note = f"smaller than `min_area` {options.min_area:g} m²"
     others = [other_object(with_least_depth(measure_reef(points, p, raster, seabed, is_reef=is_reef,
-                                                         shape=False, reach=reach), m,
+                                                         shape=False, sigma=sigma), m,
                                             context, clear, noise), small_note)
               for p, m in zip(small, _members(points, is_reef, raster, small), strict=True)]
     kept, kept_members = [], []
