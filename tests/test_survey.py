@@ -242,6 +242,20 @@ def test_cli_runs_on_a_real_scheduler_on_loopback(reef_lines, in_memory, tmp_pat
 
 
 @pytest.mark.slow
+def test_tiled_reefs_told_the_beam_are_the_in_memory_reefs(tmp_path: Path) -> None:
+    """Each tile keeps the beam angles and intensities the beam correction needs (a tile
+    that kept only the pings placed every transducer at the surface over its sounding: tops
+    0.33 m off, areas 13 % off)."""
+    simulate_lines("reef-field", tmp_path, seed=5, beam_across_deg=1.0, **REEF_SCENE)
+    files = expand_inputs([tmp_path])
+    opts = ReefOptions(seabed="grid", beam_correction=True, beam_width_deg=1.0)
+    whole = run_survey("reefs", files, opts, SurveyOptions()).result
+    tiled = run_survey("reefs", files, opts, SurveyOptions(tiled=True, tile_size=130.0, workers=1))
+    assert tiled.tiles >= 4
+    _same_reefs(whole, tiled.result)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("beam", [0.0, 1.0])
 def test_tiled_piles_are_the_in_memory_piles(tmp_path: Path, beam: float) -> None:
     """Thin beams, and 1° beams with each tile's piles seen through them (issue 28)."""

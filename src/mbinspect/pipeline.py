@@ -53,9 +53,6 @@ class Pipeline(Protocol):
         Its name in :data:`mbinspect.pipelines.PIPELINES` and in progress lines.
     options_class : type
         The frozen options dataclass it runs with.
-    fields : tuple of str
-        The per-sounding fields it reads besides x, y, z, ``file`` and ``line``: all a tile
-        keeps of the survey's fields.
     """
 
     @property
@@ -64,8 +61,10 @@ class Pipeline(Protocol):
     @property
     def options_class(self) -> type: ...
 
-    @property
-    def fields(self) -> tuple[str, ...]: ...
+    def tile_fields(self, options: Any) -> tuple[str, ...]:
+        """The per-sounding fields it reads besides x, y, z, ``file`` and ``line`` with these
+        options: all a tile keeps of the survey's fields."""
+        ...
 
     def buffer(self, options: Any) -> float:
         """Metres a tile reads beyond its square, so that every stage sees near the edge

@@ -34,8 +34,8 @@ def pipeline_named(name: str | Pipeline) -> Pipeline:
 
     Examples
     --------
-    >>> pipeline_named("reefs").fields
-    ('ping',)
+    >>> pipeline_named("reefs").name
+    'reefs'
     """
     if not isinstance(name, str):
         return name

@@ -27,7 +27,10 @@ class PilesPipeline:
 
     name: str = "piles"
     options_class: type = PileOptions
-    fields: tuple[str, ...] = ("ping", "intensity", "beam_angle")
+
+    def tile_fields(self, options: PileOptions) -> tuple[str, ...]:
+        """Pings, intensities and beam angles: the backscatter threshold and the beam."""
+        return ("ping", "intensity", "beam_angle")
 
     def buffer(self, options: PileOptions) -> float:
         """A pile's neighbourhood and a metre (:attr:`PileOptions.neighbourhood`)."""

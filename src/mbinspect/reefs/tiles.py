@@ -30,7 +30,11 @@ class ReefsPipeline:
 
     name: str = "reefs"
     options_class: type = ReefOptions
-    fields: tuple[str, ...] = ("ping",)
+
+    def tile_fields(self, options: ReefOptions) -> tuple[str, ...]:
+        """Pings (a reef seen by too few is set aside); told the beam, also the beam angles and
+        intensities each ping's transducer and the reefs' echo contrast come from."""
+        return ("ping", "beam_angle", "intensity") if options.beam_correction else ("ping",)
 
     def buffer(self, options: ReefOptions) -> float:
         """A reef's single-reef area comes from the parts within ``AREA_RADIUS`` m, each
