@@ -164,10 +164,9 @@ def run_survey(pipeline: str | Pipeline, paths: Sequence[str | os.PathLike[str]]
     with tempfile.TemporaryDirectory(prefix="mbinspect-tiles-", dir=workdir) as tmp:
         use_dask = survey.scheduler is not None or survey.workers != 1
         with _maybe_client(use_dask, survey) as client:
-            bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client,
-                             progress=progress, block=block, workdir=tmp, read_options=ropts,
-                             chunk=survey.chunk, fields=pipe.tile_fields(options),
-                             target=_target(files, ropts))
+            bins = map_tasks(_bin_one, [(str(f), k) for k, f in enumerate(files)], client=client, block=block,
+                             progress=progress, workdir=tmp, read_options=ropts, chunk=survey.chunk,
+                             fields=pipe.tile_fields(options), target=_target(files, ropts))
             plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey),
                                  pipe.grid_cell(options))
             tile_opts, notes = pipe.tile_options(options)
