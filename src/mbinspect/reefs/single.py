@@ -9,6 +9,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+from scipy import ndimage
 
 from ..grid import cell_index
 from ..noise import robust_sigma
@@ -218,8 +219,38 @@ def _footprints(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, opt
         least = options.min_area / raster.cell**2
         small = small + [p for p in parts if len(p) < least]
         heard = {id(p): (p, b) for p, b in zip(parts, bloomed, strict=True) if len(p) < len(b)}
+        # two reefs the bloom joined come apart once it is off: each its own part (heard as none)
         parts = [p for p in parts if len(p) >= least]
+        one = APART_SHARE * float(np.median([len(p) for p in parts])) if parts else least
+        parts = [q for p in parts for q in _apart(p, raster.labels.shape[1], max(least, one))]
     return parts, small, raster, used_area, heard
+
+
+#: Least share of the median reef's cells (once the bloom is off) a piece of a part must hold
+#: to stand as a reef of its own: a hollow square's walls cut apart by the erosion hold less.
+APART_SHARE = 0.6
+
+
+def _apart(cells: np.ndarray, nx: int, least: float) -> list[np.ndarray]:
+    """A part's cells (flat indices in rows of ``nx``) as the pieces they fall into (8-connected),
+    when at least two of them hold ``least`` cells each; the smaller pieces go with the nearest
+    of those. Else the part whole."""
+    cj, ci = np.divmod(cells, nx)
+    j0, i0 = int(cj.min()), int(ci.min())
+    mask = np.zeros((int(cj.max()) - j0 + 1, int(ci.max()) - i0 + 1), bool)
+    mask[cj - j0, ci - i0] = True
+    lab, k = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    if k < 2:
+        return [cells]
+    which = lab[cj - j0, ci - i0]
+    sizes = np.bincount(which, minlength=k + 1)
+    big = np.flatnonzero((sizes >= least) & (np.arange(k + 1) > 0))
+    if len(big) < 2:
+        return [cells]
+    centres = np.array([[cj[which == b].mean(), ci[which == b].mean()] for b in big])
+    near = np.argmin(np.hypot(cj[:, None] - centres[:, 0], ci[:, None] - centres[:, 1]), axis=1)
+    owner = np.where(np.isin(which, big), np.searchsorted(big, which), near)
+    return [cells[owner == b] for b in range(len(big))]
 
 
 def _heard(heard: Heard, part: np.ndarray) -> np.ndarray | None:
