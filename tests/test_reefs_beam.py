@@ -95,15 +95,20 @@ def test_told_the_beam_debris_stays_small_and_flat_tops_stay_level():
     assert np.abs(errors).max() < 0.1
 
 
-def test_told_the_beam_a_dense_field_at_25_m_is_neither_rough_ground_nor_rocks():
-    # the study's rocks among cubes through 1 deg cones: the mixed echoes on a cross group's
-    # flanks made it "rough terrain" (18 reefs lost), and outer beams sounding flat tops high
-    # made 23 cubes, crosses and hollow squares look rounded; 20 rocks must stay rocks
-    sim = simulate("reef-field", seed=0, groups="cross2,cube,hollow", seabed=-25.0, rocks=20, burial_max=0.5,
-                   beam_across_deg=1.0)
+def _rocks_among_cubes_told(seed: int):
+    """The study's rocks among cubes at 25 m through 1 deg cones, and the reefs told the beam."""
+    sim = simulate("reef-field", seed=seed, groups="cross2,cube,hollow", seabed=-25.0, rocks=20,
+                   burial_max=0.5, beam_across_deg=1.0)
     truth = sim.truth["reefs"]
     ref = (np.array([[t["x"], t["y"]] for t in truth]), tuple(t["id"] for t in truth))
-    res = extract_reefs(sim.cloud, reference=ref, beam_correction=True, beam_width_deg=1.0)
+    return sim, truth, extract_reefs(sim.cloud, reference=ref, beam_correction=True, beam_width_deg=1.0)
+
+
+def test_told_the_beam_a_dense_field_at_25_m_is_neither_rough_ground_nor_rocks():
+    # the mixed echoes on a cross group's flanks made it "rough terrain" (18 reefs lost), and
+    # outer beams sounding flat tops high made 23 cubes, crosses and hollow squares look
+    # rounded; 20 rocks must stay rocks
+    sim, truth, res = _rocks_among_cubes_told(0)
     assert res.filters["rough_terrain"]["excluded_area"] == 0
     assert res.evaluation.tp >= len(truth) - 1 and res.evaluation.fp <= 1
     rocks = np.array([[d["x"], d["y"]] for d in sim.truth["distractors"] if d["kind"] == "rock"])
@@ -128,9 +133,5 @@ def test_reefs_the_bloom_joined_come_apart_once_it_is_off():
 def test_told_the_beam_hollow_squares_heard_as_pairs_come_apart():
     # at 25 m the blooms of neighbouring hollow squares join: on this seed 12 of them were
     # heard as pairs (63 of 75 found); taking the bloom off parts 8 of them again
-    sim = simulate("reef-field", seed=5, groups="cross2,cube,hollow", seabed=-25.0, rocks=20, burial_max=0.5,
-                   beam_across_deg=1.0)
-    truth = sim.truth["reefs"]
-    ref = (np.array([[t["x"], t["y"]] for t in truth]), tuple(t["id"] for t in truth))
-    res = extract_reefs(sim.cloud, reference=ref, beam_correction=True, beam_width_deg=1.0)
+    _, truth, res = _rocks_among_cubes_told(5)
     assert res.evaluation.tp >= len(truth) - 4 and res.evaluation.fp <= 3
