@@ -208,19 +208,18 @@ def measure_reef(points: np.ndarray, cells: np.ndarray, raster: Raster, seabed: 
     near = raster.nearest.ravel()[cells]
     pidx = own_soundings(cells, raster, is_reef)
     z = points[pidx, 2] if len(pidx) else np.array([np.nan])
-    hi = np.nanpercentile(z, 98)
-    z_top = float(np.nanmedian(z[z >= hi - 0.25]))
+    if sigma is not None and len(pidx) >= 10 and np.isfinite(z).all():
+        w = 1.0 / sigma[pidx] ** 2
+        top = z >= weighted_percentile(z, w, 98) - 0.25
+        z_top = weighted_percentile(z[top], w[top], 50)
+    else:
+        z_top = float(np.nanmedian(z[z >= np.nanpercentile(z, 98) - 0.25]))
     ring = ring_seabed(points, cj, ci, raster, seabed, is_reef, x, y)
     local: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     if ring is not None:
         def local(qx: np.ndarray, qy: np.ndarray, _r=ring) -> np.ndarray:
             return 0.5 * (_r(qx, qy) + seabed.elevation(qx, qy))
     z_sea = float((local or seabed.elevation)(np.array([x]), np.array([y]))[0])
-    if sigma is not None and len(pidx) >= 10 and np.isfinite(z).all():
-        w = 1.0 / sigma[pidx] ** 2
-        hi = weighted_percentile(z, w, 98)
-        top = z >= hi - 0.25
-        z_top = weighted_percentile(z[top], w[top], 50)
     height = z_top - z_sea
     if not shape:
         return Reef(reef_id, x, y, z_sea, z_top, height, float(len(cells) * c * c), math.nan, math.nan,

@@ -156,13 +156,10 @@ def dome_shape(xy: np.ndarray, z: np.ndarray, across: float, weight: np.ndarray 
         return math.nan, math.nan
     p = xy[up] - xy[up].mean(axis=0)
     design = np.column_stack([np.ones(len(p)), p, p**2, p[:, 0] * p[:, 1]])
-    if weight is None:
-        coef, *_ = np.linalg.lstsq(design, z[up], rcond=None)
-        misfit = float(np.sqrt(np.mean((z[up] - design @ coef) ** 2))) / top
-    else:
-        root = np.sqrt(weight[up])
-        coef, *_ = np.linalg.lstsq(design * root[:, None], z[up] * root, rcond=None)
-        misfit = float(np.sqrt(np.sum(weight[up] * (z[up] - design @ coef) ** 2) / np.sum(weight[up]))) / top
+    w = np.ones(len(p)) if weight is None else weight[up]  # ones: the plain fit, to the bit
+    root = np.sqrt(w)
+    coef, *_ = np.linalg.lstsq(design * root[:, None], z[up] * root, rcond=None)
+    misfit = float(np.sqrt(np.sum(w * (z[up] - design @ coef) ** 2) / np.sum(w))) / top
     hessian = np.array([[2 * coef[3], coef[5]], [coef[5], 2 * coef[4]]])
     curvature = -float(np.linalg.eigvalsh(hessian).min())  # the most downward, 1/m
     return misfit, curvature / 2 * (across / 2) ** 2 / top
