@@ -135,3 +135,12 @@ def test_told_the_beam_hollow_squares_heard_as_pairs_come_apart():
     # heard as pairs (63 of 75 found); taking the bloom off parts 8 of them again
     _, truth, res = _rocks_among_cubes_told(5)
     assert res.evaluation.tp >= len(truth) - 4 and res.evaluation.fp <= 3
+
+
+def test_told_the_beam_without_pings_the_result_says_so(field):
+    sim, _, _ = field
+    told = {"beam_correction": True, "beam_width_deg": 1.0}
+    assert not [w for w in extract_reefs(sim.cloud, **told).warnings if "carry no" in w]
+    bare = extract_reefs(sim.cloud.xyz, **told).warnings  # x, y, z alone: an ASCII export
+    assert any("carry no ping or beam_angle" in w for w in bare)
+    assert not [w for w in extract_reefs(sim.cloud.xyz).warnings if "carry no" in w]

@@ -144,7 +144,8 @@ def extract_reefs(data: PointCloud | np.ndarray, options: ReefOptions | None = N
                             max_slope_deg=opts.max_slope_deg, max_roughness=opts.max_roughness,
                             seabed_cell=opts.seabed_cell, seabed_window=opts.seabed_window,
                             skirt=_bloom(clean, opts))
-    warnings = notes + ([filter_note] if filter_note else []) + list(ground.warnings)
+    warnings = [*notes, *([filter_note] if filter_note else []), *ground.warnings,
+                *_beam_note(cloud, opts)]
     if ground.report is not None:
         filters["rough_terrain"] = ground.report
     kept = ground.points
@@ -190,6 +191,16 @@ def _bloom(pts: np.ndarray, opts: ReefOptions) -> float:
     if not opts.beam_correction:
         return 0.0
     return abs(float(np.median(pts[:, 2]))) * math.tan(math.radians(opts.beam_width_deg))
+
+
+def _beam_note(cloud: PointCloud, opts: ReefOptions) -> list[str]:
+    """Told the beam, what the soundings lack to show how each was seen."""
+    missing = [k for k in ("ping", "beam_angle") if cloud.fields.get(k) is None]
+    if not opts.beam_correction or not missing:
+        return []
+    return [f"the soundings carry no {' or '.join(missing)}: the beam correction placed every transducer "
+            "at the surface over its sounding and took the bloom's shape as the same every way (a sonar "
+            "file or an .npz that keeps them sees each reef's edges as its lines saw them)"]
 
 
 def _laps(times: StageTimes | None) -> Callable[[str], None]:
