@@ -380,7 +380,8 @@ def _merge(pipe: Pipeline, outcomes: Sequence[TileOutcome], options: Any, extra:
         # every tile with soundings of its own says the data cannot support an answer: the
         # answer a whole run gives
         raise DataError(f"{refused[0]} (so says every tile of the survey: {len(refused)})")
-    warnings = list(notes) + [w for o in outcomes for w in o.part.warnings]
+    # a warning every tile gives alike is said once
+    warnings = list(dict.fromkeys([*notes, *(w for o in outcomes for w in o.part.warnings)]))
     parameters = {**options.to_dict(),
                   "input": {"source": f"{len(files)} files", "n_points": sum(b.n for b in bins),
                             "crs": bins[0].crs},
