@@ -20,7 +20,7 @@ from .fit_design import fit_reef_design, join_by_design, share_by_design, with_d
 from .footprint import Raster
 from .ground import Seabed
 from .least import with_least_depth
-from .measure import measure_reef, soundings_around
+from .measure import measure_reef, own_soundings, soundings_around
 from .options import ReefOptions
 from .orient import overturned_unit, with_rest
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
@@ -222,35 +222,80 @@ def _footprints(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, opt
         # two reefs the bloom joined come apart once it is off: each its own part (heard as none)
         parts = [p for p in parts if len(p) >= least]
         one = APART_SHARE * float(np.median([len(p) for p in parts])) if parts else least
-        parts = [q for p in parts for q in _apart(p, raster.labels.shape[1], max(least, one))]
+        necks = [_neck(points, p, raster, is_reef, view) for p in parts]
+        parts = [q for p, k in zip(parts, necks, strict=True)
+                 for q in _apart(p, raster.labels.shape[1], max(least, one), k, hollow=least)]
     return parts, small, raster, used_area, heard
 
 
 #: Least share of the median reef's cells (once the bloom is off) a piece of a part must hold
 #: to stand as a reef of its own: a hollow square's walls cut apart by the erosion hold less.
 APART_SHARE = 0.6
+#: Least share of a part's enclosed cells its pieces, parted at a neck, must still enclose.
+NECK_HOLES = 0.8
 
 
-def _apart(cells: np.ndarray, nx: int, least: float) -> list[np.ndarray]:
+def _neck(points: np.ndarray, cells: np.ndarray, raster: Raster, is_reef: np.ndarray, view: Sight) -> int:
+    """Cells of half a cone's width at the part's median depth under its transducers: the
+    widest neck the bloom may have left between two reefs it joined (m / cell, whole)."""
+    rows = own_soundings(cells, raster, is_reef)
+    if not len(rows):
+        return 0
+    depth = float(np.median(view.origins[rows, 2] - points[rows, 2]))
+    return int(depth * math.tan(math.radians(view.beam.beam_across_deg)) / 2 / raster.cell)
+
+
+def _apart(cells: np.ndarray, nx: int, least: float, neck: int = 0, hollow: float = math.inf
+           ) -> list[np.ndarray]:
     """A part's cells (flat indices in rows of ``nx``) as the pieces they fall into (8-connected),
-    when at least two of them hold ``least`` cells each; the smaller pieces go with the nearest
-    of those. Else the part whole."""
+    eroded by up to ``neck`` cells, when at least two of them hold ``least`` cells each (a
+    piece's cells: those of the part nearest to it); the smaller pieces go with the nearest of
+    those. Failing that, a part that encloses two or more interiors of ``hollow`` cells each as
+    many hollow reefs (each cell with the nearest interior). Else the part whole."""
     cj, ci = np.divmod(cells, nx)
     j0, i0 = int(cj.min()), int(ci.min())
-    mask = np.zeros((int(cj.max()) - j0 + 1, int(ci.max()) - i0 + 1), bool)
-    mask[cj - j0, ci - i0] = True
-    lab, k = ndimage.label(mask, structure=np.ones((3, 3), bool))
-    if k < 2:
-        return [cells]
-    which = lab[cj - j0, ci - i0]
-    sizes = np.bincount(which, minlength=k + 1)
-    big = np.flatnonzero((sizes >= least) & (np.arange(k + 1) > 0))
+    mask = np.zeros((int(cj.max()) - j0 + 3, int(ci.max()) - i0 + 3), bool)
+    mask[cj - j0 + 1, ci - i0 + 1] = True
+    for step in range(neck + 1):
+        core = ndimage.binary_erosion(mask, iterations=step) if step else mask
+        lab, k = ndimage.label(core, structure=np.ones((3, 3), bool))
+        if k < 2:
+            continue
+        owner = _nearest_label(lab)[cj - j0 + 1, ci - i0 + 1]
+        big = np.flatnonzero(np.bincount(owner, minlength=k + 1) >= least)
+        big = big[big > 0]
+        if len(big) < 2:
+            continue
+        owner = _nearest_label(np.where(np.isin(lab, big), lab, 0))[cj - j0 + 1, ci - i0 + 1]
+        pieces = [np.zeros_like(mask) for _ in big]
+        for p, b in zip(pieces, big, strict=True):
+            p[cj[owner == b] - j0 + 1, ci[owner == b] - i0 + 1] = True
+        if step and not _holes_kept(mask, pieces):
+            continue
+        return [cells[owner == b] for b in big]
+    holes, k = ndimage.label(ndimage.binary_fill_holes(mask) & ~mask)
+    big = np.flatnonzero(np.bincount(holes.ravel(), minlength=k + 1) >= hollow)
+    big = big[big > 0]
     if len(big) < 2:
         return [cells]
-    centres = np.array([[cj[which == b].mean(), ci[which == b].mean()] for b in big])
-    near = np.argmin(np.hypot(cj[:, None] - centres[:, 0], ci[:, None] - centres[:, 1]), axis=1)
-    owner = np.where(np.isin(which, big), np.searchsorted(big, which), near)
-    return [cells[owner == b] for b in range(len(big))]
+    owner = _nearest_label(np.where(np.isin(holes, big), holes, 0))[cj - j0 + 1, ci - i0 + 1]
+    return [cells[owner == b] for b in big]
+
+
+def _holes_kept(mask: np.ndarray, pieces: list[np.ndarray]) -> bool:
+    """Whether the pieces (boolean masks like ``mask``) each still enclose what they enclosed
+    within ``mask``: at least :data:`NECK_HOLES` of its enclosed cells. One hollow square whose wall
+    an erosion cut falls into arcs that enclose nothing; two hollow squares joined at a corner,
+    or two solid reefs side by side, keep their interiors."""
+    enclosed = int((ndimage.binary_fill_holes(mask) & ~mask).sum())
+    kept = sum(int((ndimage.binary_fill_holes(p) & ~p).sum()) for p in pieces)
+    return kept >= NECK_HOLES * enclosed
+
+
+def _nearest_label(lab: np.ndarray) -> np.ndarray:
+    """Each pixel's nearest labelled pixel's label."""
+    _, (jj, ii) = ndimage.distance_transform_edt(lab == 0, return_indices=True)
+    return lab[jj, ii]
 
 
 def _heard(heard: Heard, part: np.ndarray) -> np.ndarray | None:
