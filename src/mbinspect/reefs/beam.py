@@ -226,7 +226,7 @@ def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, i
     """Every part's footprint with its bloom taken off: eroded by the bloom's shape
     (:func:`reach`, :func:`structure`) at the part's range, beam angle, height and heading.
     Returns the parts' cells (flat raster indices) and the raster with the bloom's cells
-    unlabelled."""
+    unlabelled (and marked in its ``bloom``)."""
     ny, nx = raster.labels.shape
     labels = raster.labels.copy()
     out = []
@@ -245,4 +245,5 @@ def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, i
             continue
         labels.ravel()[cells[~keep]] = 0
         out.append(cells[keep])
-    return out, Raster(raster.x0, raster.y0, raster.cell, labels, raster.nearest)
+    bloom = (labels == 0) & (raster.labels > 0)
+    return out, Raster(raster.x0, raster.y0, raster.cell, labels, raster.nearest, bloom)

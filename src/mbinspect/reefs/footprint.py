@@ -28,6 +28,20 @@ class Raster:
     cell: float
     labels: np.ndarray  # (ny, nx) int: 0 background, 1..K parts
     nearest: np.ndarray  # (ny, nx) int: index of the nearest sounding (-1 none)
+    bloom: np.ndarray | None = None  # (ny, nx) bool: cells a beam's bloom was taken off (told the beam)
+
+    def in_bloom(self, points: np.ndarray) -> np.ndarray:
+        """Whether each of ``points`` stands in a cell the bloom was taken off (all False
+        when no bloom was, or outside the raster)."""
+        out = np.zeros(len(points), bool)
+        if self.bloom is None:
+            return out
+        ny, nx = self.bloom.shape
+        ci = np.floor((points[:, 0] - self.x0) / self.cell).astype(np.int64)
+        cj = np.floor((points[:, 1] - self.y0) / self.cell).astype(np.int64)
+        ok = (ci >= 0) & (ci < nx) & (cj >= 0) & (cj < ny)
+        out[ok] = self.bloom[cj[ok], ci[ok]]
+        return out
 
 
 def nearest_label_raster(points: np.ndarray, is_reef: np.ndarray, *, cell: float, reach: float,

@@ -174,7 +174,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         f = replace(f, least=r.least)  # the same soundings: the same least depth
         # how it rests, from its soundings and those 0.6 m around (noise: the seabed's spread,
         # or 5 cm when too little seabed shows to measure it)
-        around = soundings_around(raster, *np.divmod(p, raster.labels.shape[1]), 6)
+        around = _around(points, p, raster)
         rest = functools.partial(with_rest, rows=around, own=m, points=points, height=height,
                                  designs=designs, noise=noise or 0.05, ping=ping)
         r = rest(r, pose=pose)
@@ -195,6 +195,14 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
             kept.append(r)
             kept_members.append(m)
     return kept, others, used_area, kept_members
+
+
+def _around(points: np.ndarray, cells: np.ndarray, raster: Raster) -> np.ndarray:
+    """The soundings 0.6 m round a reef that show how it rests: told the beam, not those
+    standing where its bloom was taken off (heard on the unit beyond its edge, they stand
+    where every orientation of the design puts the seabed)."""
+    around = soundings_around(raster, *np.divmod(cells, raster.labels.shape[1]), 6)
+    return around[~raster.in_bloom(points[around])]
 
 
 #: Each unbloomed part's cells as heard, by the part's ``id`` (with the part, to check it is the same).
