@@ -461,3 +461,26 @@ def test_verbose_prints_each_stage_and_the_times_are_the_runs(tmp_path, capsys, 
                  "--out", str(tmp_path / "o")]) == 0
     line = [x for x in capsys.readouterr().err.splitlines() if "stages: reading" in x]
     assert len(line) == 1 and all(w in line[0] for w in ("radius filter", "single reefs", "outputs"))
+
+
+def test_a_design_joins_two_parts_only_where_it_holds_both():
+    # the joint fit's misfit counts only the soundings near its edge: a part lying wholly
+    # beyond them did not count against it, and a unit on its side (no upright fit) was
+    # joined with a neighbour 4.7 m away
+    from mbinspect.reef_designs import BUILTIN_DESIGNS
+    from mbinspect.reefs.fit_design import _covers
+    from mbinspect.reefs.footprint import Raster
+    from mbinspect.reefs.pose import fit_design
+
+    d = BUILTIN_DESIGNS["cross1"]
+    g = np.mgrid[-2:2:0.1, -2:2:0.1].reshape(2, -1).T + 0.05
+    inside = d.signed_distance(g, 0.3, -0.2, 20.0, 1.0) < 0
+    fit = fit_design(g, inside, ~inside, d, x0=0.0, y0=0.0)
+    ny, nx = 60, 120
+    raster = Raster(-3.0, -3.0, 0.1, np.zeros((ny, nx), np.int64), np.full((ny, nx), -1))
+    jj, ii = np.mgrid[0:ny, 0:nx]
+    centres = np.column_stack([-3.0 + (ii.ravel() + 0.5) * 0.1, -3.0 + (jj.ravel() + 0.5) * 0.1])
+    here = np.flatnonzero(d.signed_distance(centres, 0.3, -0.2, 20.0, 1.0) < 0)
+    there = np.flatnonzero(d.signed_distance(centres, 5.3, -0.2, 20.0, 1.0) < 0)
+    assert _covers(fit, d, here, raster)
+    assert not _covers(fit, d, there, raster)

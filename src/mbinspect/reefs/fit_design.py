@@ -164,11 +164,24 @@ def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
         f = fit_reef_design(points, union, raster, is_reef, height, designs,
                             reef_height=max(heights[i], heights[j]), max_misfit=max_misfit)
         apart = sum(math.inf if g is None else g.loss for g in (fits[i], fits[j]))
-        if f is not None and f.loss <= apart:
+        if f is not None and f.loss <= apart and all(_covers(f, by_name[f.design], parts[k], raster)
+                                                     for k in (i, j)):
             parts[i], fits[i], heights[i] = union, f, max(heights[i], heights[j])
             alive[j] = False
     keep = [k for k in range(len(parts)) if alive[k]]
     return [parts[k] for k in keep], [fits[k] for k in keep], [heights[k] for k in keep]
+
+
+#: A design joining two parts must hold this share of each part's cells within
+#: :data:`COVER_REACH` m of its footprint: its misfit counts only the soundings near its edge,
+#: and a part lying wholly beyond them would not count against it.
+COVER_SHARE, COVER_REACH = 0.5, 0.25
+
+
+def _covers(fit: DesignFit, design: ReefDesign, cells: np.ndarray, raster: Raster) -> bool:
+    """Whether the fitted design holds the part's cells (:data:`COVER_SHARE`)."""
+    d = design.signed_distance(raster.centres(cells), *fit.origin, fit.bearing_deg, fit.scale)
+    return bool(np.mean(d <= COVER_REACH) >= COVER_SHARE)
 
 
 def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Raster,

@@ -30,6 +30,11 @@ class Raster:
     nearest: np.ndarray  # (ny, nx) int: index of the nearest sounding (-1 none)
     bloom: np.ndarray | None = None  # (ny, nx) bool: cells a beam's bloom was taken off (told the beam)
 
+    def centres(self, cells: np.ndarray) -> np.ndarray:
+        """The plan centres (M, 2) of flat cell indices ``cells`` (m)."""
+        cj, ci = np.divmod(np.asarray(cells), self.labels.shape[1])
+        return np.column_stack([self.x0 + (ci + 0.5) * self.cell, self.y0 + (cj + 0.5) * self.cell])
+
     def in_bloom(self, points: np.ndarray) -> np.ndarray:
         """Whether each of ``points`` stands in a cell the bloom was taken off (all False
         when no bloom was, or outside the raster)."""
