@@ -42,8 +42,7 @@ class Raster:
         if self.bloom is None:
             return out
         ny, nx = self.bloom.shape
-        ci = np.floor((points[:, 0] - self.x0) / self.cell).astype(np.int64)
-        cj = np.floor((points[:, 1] - self.y0) / self.cell).astype(np.int64)
+        ci, cj = cell_index(points, self.x0, self.y0, self.cell)
         ok = (ci >= 0) & (ci < nx) & (cj >= 0) & (cj < ny)
         out[ok] = self.bloom[cj[ok], ci[ok]]
         return out

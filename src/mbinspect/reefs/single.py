@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 from scipy import ndimage
 
-from ..grid import cell_index
+from ..grid import cell_index, fill_holes
 from ..noise import robust_sigma
 from ..seabed import GROUND_BAND
 from ..strays import cell_groups
@@ -281,7 +281,7 @@ def _apart(cells: np.ndarray, nx: int, least: float, neck: int = 0, hollow: floa
         if step and not _holes_kept(mask, pieces):
             continue
         return [cells[owner == b] for b in big]
-    holes, k = ndimage.label(ndimage.binary_fill_holes(mask) & ~mask)
+    holes, k = ndimage.label(fill_holes(mask) & ~mask)
     big = np.flatnonzero(np.bincount(holes.ravel(), minlength=k + 1) >= hollow)
     big = big[big > 0]
     if len(big) < 2:
@@ -291,12 +291,12 @@ def _apart(cells: np.ndarray, nx: int, least: float, neck: int = 0, hollow: floa
 
 
 def _holes_kept(mask: np.ndarray, pieces: list[np.ndarray]) -> bool:
-    """Whether the pieces (boolean masks like ``mask``) each still enclose what they enclosed
-    within ``mask``: at least :data:`NECK_HOLES` of its enclosed cells. One hollow square whose wall
-    an erosion cut falls into arcs that enclose nothing; two hollow squares joined at a corner,
-    or two solid reefs side by side, keep their interiors."""
-    enclosed = int((ndimage.binary_fill_holes(mask) & ~mask).sum())
-    kept = sum(int((ndimage.binary_fill_holes(p) & ~p).sum()) for p in pieces)
+    """Whether the pieces (boolean masks like ``mask``) together still enclose at least
+    :data:`NECK_HOLES` of the cells ``mask`` encloses. One hollow square whose wall an erosion
+    cut falls into arcs that enclose nothing; two hollow squares joined at a corner, or two
+    solid reefs side by side, keep their interiors."""
+    enclosed = int((fill_holes(mask) & ~mask).sum())
+    kept = sum(int((fill_holes(p) & ~p).sum()) for p in pieces)
     return kept >= NECK_HOLES * enclosed
 
 
