@@ -14,7 +14,8 @@ error (RMS, max, within 3°, within 2σ). Least depths of the matched reefs: err
 true top (+ shoal), within the 95 % TVU, deeper than the truth beyond it, median TVU. Configs:
 ``reef-field`` (the shallow sonar), ``reef-field-tide`` (a 2.4 m tide: heights from the water
 level at each ping, put back on chart datum with the simulated gauge's ``tide.csv``),
-``reef-field-beam`` (1° cones; ``-told``: the reef chain told the beam),
+``reef-field-beam`` (1° cones; ``-told``: the reef chain told the beam; ``-0.5-told`` and
+``-2-told`` the same sonar with 0.5° and 2° cones),
 ``reef-field-classic`` (the idealised sonar).
 
 ``--real``: four reefs injected into each real file (``study_inject.py``'s square): least
@@ -47,6 +48,10 @@ CONFIGS: dict[str, dict] = {
     "reef-field-tide": {"tide_range": 2.4, "tide_mean": 1.2},
     "reef-field-beam": {"sonar": "shallow-beam"},
     "reef-field-beam-told": {"sonar": "shallow-beam"},
+    # the same sonar with narrower and wider cones, told the beam: the bearing's 1-sigma carries
+    # what each footprint leaves (calibrated at 1°)
+    "reef-field-beam-0.5-told": {"sonar": "shallow-beam", "beam_across_deg": 0.5},
+    "reef-field-beam-2-told": {"sonar": "shallow-beam", "beam_across_deg": 2.0},
     "reef-field-classic": {"sonar": "classic"},
 }
 
@@ -60,7 +65,8 @@ def run_one(args: tuple[str, int]) -> list[dict]:
             write_bundle(Path(tmp), {"tide": sim.truth["tide"]})
             cloud = on_reference(cloud, vertical_reference(Path(tmp) / "tide.csv"), "simulated")
     plan = ReefPlan(tuple({**u, "id": str(u["id"])} for u in sim.truth["plan"]), "simulated plan")
-    told = TOLD if name.endswith("-told") else {}
+    width = CONFIGS[name].get("beam_across_deg", 1.0)
+    told = {**TOLD, "beam_width_deg": width} if name.endswith("-told") else {}
     res = extract_reefs(cloud, design="cross2,cross1", plan=plan, **told)
     truth = {str(t["id"]): t for t in sim.truth["reefs"]}
     units = {str(u["id"]): u for u in sim.truth["plan"]}

@@ -53,6 +53,38 @@ def test_each_reef_is_matched_to_its_unit_with_its_offset_and_bearing_error(plan
     assert back.reefs[0].plan == r.reefs[0].plan and back.plan_missing == ()
 
 
+def test_told_the_beam_the_sigmas_grow_with_the_footprint_and_cover_the_error() -> None:
+    """Through 1° cones the design fit's bearing carries a bias from the bloom that no fit
+    covariance shows (1.8° RMS where thin rays give 0.65°): the bearing's 1-sigma grows with the
+    footprint's share of the unit's length, the centre's with its width, and the thin run keeps
+    the stated floors."""
+    sim = simulate("reef-field", seed=4, groups="cross2", per_group=9, plan_bearing_deg=30.0, close_pairs=0,
+                   ping_spacing=0.6, sonar="shallow-beam")
+    depth = -float(np.median(sim.cloud.xyz[:, 2]))
+    truth = {str(t["id"]): t for t in sim.truth["reefs"]}
+    told = extract_reefs(sim.cloud, design="cross2", plan=_plan(sim), beam_correction=True,
+                         beam_width_deg=1.0)
+    thin = extract_reefs(sim.cloud, design="cross2", plan=_plan(sim))
+    assert len(told.reefs) == 9
+    assert all(depth * math.radians(1.0) < f.beam_footprint < 2 * depth * math.radians(1.0)
+               for f in told.reefs)  # the footprint at a slant range of one to two depths (beams to 60°)
+    fitted = [f for f in told.reefs if "bearing_error_deg" in f.plan]
+    assert len(fitted) >= 6
+    within = 0
+    for f in fitted:
+        p = f.plan
+        expected = math.hypot(1.0, math.degrees(0.2 * f.beam_footprint / f.length))
+        assert p["plan_offset_sigma"] == pytest.approx(math.hypot(0.05, 0.06 * f.beam_footprint))
+        assert p["bearing_error_sigma_deg"] == pytest.approx(expected) and expected > 1.5
+        true_turn = (truth[p["plan_id"]]["bearing_deg"] - 30.0 + 45) % 90 - 45
+        within += abs(p["bearing_error_deg"] - true_turn) <= 2 * p["bearing_error_sigma_deg"]
+    assert within >= len(fitted) - 1
+    assert all(math.isnan(f.beam_footprint) for f in thin.reefs)
+    assert {f.plan["bearing_error_sigma_deg"] for f in thin.reefs if "bearing_error_deg" in f.plan} == {1.0}
+    assert {f.plan["plan_offset_sigma"] for f in thin.reefs if "plan_offset" in f.plan} == {0.05}
+    assert ReefResult.from_dict(told.to_dict()).reefs[0].beam_footprint == told.reefs[0].beam_footprint
+
+
 def test_a_unit_not_found_and_a_reef_not_in_the_plan(planned) -> None:
     sim = planned
     gone = sim.truth["reefs"][4]

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import points_in_polygon
+from ..reefs.plan import bearing_sigma_of, position_sigma_of
 from ..reefs.results import Reef
 from ..scour import RING, grown, scour_rings
 from .grid import Grid
@@ -107,7 +108,8 @@ def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarr
     """
     v: dict[str, Any] = {"design": b.design or a.design}
     notes: list[str] = []
-    cov = reg.plan_cov(*a_xy) + np.eye(2) * 2 * opt.position_sigma**2
+    # each survey's centre to its own 1-sigma (told the beam, with what its footprint leaves)
+    cov = reg.plan_cov(*a_xy) + np.eye(2) * sum(position_sigma_of(r, opt.position_sigma)**2 for r in (b, a))
     dx, dy = a_xy[0] - b.x, a_xy[1] - b.y
     v.update(dx=dx, dx_lod95=Z95 * math.sqrt(cov[0, 0]), dy=dy, dy_lod95=Z95 * math.sqrt(cov[1, 1]),
              displacement=math.hypot(dx, dy), displacement_lod95=R95 * math.sqrt(np.trace(cov) / 2))
@@ -115,7 +117,8 @@ def reef_change(b: Reef, a: Reef, a_xy: tuple[float, float], a_outline: np.ndarr
         turned = a.design_bearing_deg - reg.rotation_deg - b.design_bearing_deg
         v["rotation_deg"] = (turned + turn / 2) % turn - turn / 2
         rs = reg.sigma_rotation_deg if math.isfinite(reg.sigma_rotation_deg) else 0.0
-        v["rotation_deg_lod95"] = Z95 * math.sqrt(2 * opt.bearing_sigma_deg**2 + rs**2)
+        sb, sa = (bearing_sigma_of(r, opt.bearing_sigma_deg) for r in (b, a))
+        v["rotation_deg_lod95"] = Z95 * math.sqrt(sb**2 + sa**2 + rs**2)
     else:
         v["rotation_deg"] = v["rotation_deg_lod95"] = math.nan
         notes.append("rotation: no design fitted in both surveys" if b.design == a.design

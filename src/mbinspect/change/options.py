@@ -34,7 +34,8 @@ class ChangeOptions(Options):
     position_sigma: float = option(0.05, unit="m", check="positive",
                                    help="a reef centre's 1-sigma in each survey (the studies: 2-5 cm)")
     bearing_sigma_deg: float = option(1.0, unit="deg", check="positive",
-                                      help="a fitted design's bearing 1-sigma in each survey")
+                                      help="a fitted design's bearing 1-sigma in each survey (a result "
+                                           "told the beam adds its footprint's share)")
     scour_reach: float = option(REACH, unit="m", check="positive",
                                 help="how far from a unit's centre the seabed is searched for scour")
     scour_cell: float = option(0.5, unit="m", check="positive",

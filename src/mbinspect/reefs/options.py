@@ -133,7 +133,8 @@ class ReefOptions(Options):
                                    help="a reef centre's 1-sigma for the placement verdict (the studies: "
                                         "2.5 cm RMS with a design fit, 4 cm without; add the positioning's)")
     bearing_sigma_deg: float = option(1.0, unit="deg", check="positive",
-                                      help="a fitted design's bearing 1-sigma (the studies: 0.8 deg RMS)")
+                                      help="a fitted design's bearing 1-sigma (the studies: 0.65 deg RMS "
+                                           "on thin rays); told the beam, the footprint's share is added")
     min_clearance: float | None = option(None, unit="m", check="positive", kind=float,
                                          help="the least depth every object must keep below the stated "
                                               "datum (pass, fail or undecided at 95 per cent)")

@@ -28,7 +28,8 @@ from ..errors import InputError
 from ..geometry import crop_mask
 from .results import Reef, ReefResult
 
-__all__ = ["ReefPlan", "read_plan", "read_permit", "permit_in", "place_reefs"]
+__all__ = ["ReefPlan", "read_plan", "read_permit", "permit_in", "place_reefs", "bearing_sigma_of",
+           "position_sigma_of", "BEAM_BEARING", "BEAM_POSITION"]
 
 #: The least reach (m) of a planned unit for its reef.
 MIN_REACH = 1.0
@@ -247,13 +248,55 @@ def _offsets(r: Reef, unit: dict[str, Any], tolerance: float, sigma: float, bear
     and the placement verdict at 95 %."""
     dx, dy = r.x - float(unit["x"]), r.y - float(unit["y"])
     off = math.hypot(dx, dy)
+    sigma = position_sigma_of(r, sigma)
     out: dict[str, Any] = {"plan_dx": dx, "plan_dy": dy, "plan_offset": off, "plan_offset_sigma": sigma,
                            "placement": _decide(off, sigma, tolerance)}
     planned = unit.get("bearing_deg")
     if planned is not None and math.isfinite(r.design_bearing_deg):
         err = (r.design_bearing_deg - float(planned) + turn / 2) % turn - turn / 2
-        out.update(bearing_error_deg=err, bearing_error_sigma_deg=bearing_sigma)
+        out.update(bearing_error_deg=err, bearing_error_sigma_deg=bearing_sigma_of(r, bearing_sigma))
     return out
+
+
+#: The centre's error the beam leaves, per metre of the footprint's width: calibrated on the
+#: simulator (`benchmarks/study_acceptance.py`, 2° cones told the beam; checked at 1° and 0.5°).
+BEAM_POSITION = 0.06
+
+
+def position_sigma_of(r: Reef, floor: float) -> float:
+    """A reef centre's 1-sigma (m) along its offset from the plan: ``floor`` (the thin-ray
+    figure and the positioning's, as a user states it) and, told the beam, the footprint's
+    width times :data:`BEAM_POSITION`.
+
+    >>> from mbinspect.reefs.results import Reef
+    >>> r = Reef(1, 0, 0, -20, -18, 2, 5, 3.0, 3.0, 0, 1, 1, 100, beam_footprint=0.8)
+    >>> round(position_sigma_of(r, 0.05), 3), position_sigma_of(replace(r, beam_footprint=math.nan), 0.05)
+    (0.069, 0.05)
+    """
+    if not math.isfinite(r.beam_footprint):
+        return floor
+    return math.hypot(floor, BEAM_POSITION * r.beam_footprint)
+
+
+#: The bearing error the beam leaves, in radians per unit of the footprint's width over the
+#: unit's length (the edges the bearing hangs on stand off by a share of the footprint; the
+#: error is a bias of the fit, not its noise, so no per-reef covariance shows it):
+#: calibrated on the simulator (`benchmarks/study_acceptance.py`, 1° cones told the beam).
+BEAM_BEARING = 0.2
+
+
+def bearing_sigma_of(r: Reef, floor: float) -> float:
+    """A fitted design's bearing 1-sigma (deg): ``floor`` (the thin-ray figure a user states),
+    and told the beam, the footprint's share of the unit's length times :data:`BEAM_BEARING`.
+
+    >>> from mbinspect.reefs.results import Reef
+    >>> r = Reef(1, 0, 0, -20, -18, 2, 5, 3.0, 3.0, 0, 1, 1, 100, beam_footprint=0.6)
+    >>> round(bearing_sigma_of(r, 1.0), 2), bearing_sigma_of(replace(r, beam_footprint=math.nan), 1.0)
+    (2.5, 1.0)
+    """
+    if not (math.isfinite(r.beam_footprint) and r.length > 0):
+        return floor
+    return math.hypot(floor, math.degrees(BEAM_BEARING * r.beam_footprint / r.length))
 
 
 def _decide(miss: float, sigma: float, tolerance: float) -> str:

@@ -49,16 +49,19 @@ class Reef:
     overturned: bool | None = None
     resting_misfit: float = math.nan
     resting_note: str = ""
+    beam_footprint: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """One row of ``reefs.json`` (``outline``: the footprint polygon, m; the least depth's
         ``least_depth*`` keys, :meth:`~mbinspect.least_depth.LeastDepth.fields`; how it rests,
-        :mod:`~mbinspect.reefs.orient`)."""
+        :mod:`~mbinspect.reefs.orient`; ``beam_footprint``: told the beam, the width (m) of the
+        beam's footprint where the reef was heard, its soundings' median slant range times the
+        beam width, else NaN)."""
         d = {k: getattr(self, k) for k in ("id", "x", "y", "z_seabed", "z_top", "height", "area",
                                              "length", "width", "orientation_deg", "volume",
                                              "envelope_volume", "n_points", "group", "design",
                                              "design_scale", "design_bearing_deg", "design_misfit",
-                                             "buried_share", *REST_KEYS)}
+                                             "buried_share", *REST_KEYS, "beam_footprint")}
         d.update(self.least)
         d.update(self.plan)
         d["outline"] = [list(v) for v in self.outline]

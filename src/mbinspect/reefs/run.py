@@ -252,13 +252,23 @@ def _objects(cloud: PointCloud, points: np.ndarray, rows: np.ndarray, is_reef: n
         reefs, others = paper_clusters(points, is_reef, seabed, eps=opts.cluster_eps, min_area=opts.min_area)
         return reefs, others, math.nan
     ping, line = (None if cloud.fields.get(k) is None else cloud.fields[k][rows] for k in ("ping", "line"))
+    view = _sight(cloud, points, rows, is_reef, height, opts)
     reefs, others, used_area, members = reef_islands(points, is_reef, seabed, height, opts, ping=ping,
-                                                     line=line, view=_sight(cloud, points, rows, is_reef,
-                                                                            height, opts))
+                                                     line=line, view=view)
     files = cloud.meta.get("files") or [cloud.source or "(array)"]
-    reefs = [replace(r, sources=sources(rows[m], cloud.fields, files))
+    reefs = [replace(r, sources=sources(rows[m], cloud.fields, files),
+                     beam_footprint=math.nan if view is None else _footprint(points, m, view))
              for r, m in zip(reefs, members, strict=True)]
     return reefs, others, used_area
+
+
+def _footprint(points: np.ndarray, rows: np.ndarray, view: Sight) -> float:
+    """The width (m) of the beam's footprint where the soundings ``rows`` were heard: their
+    median slant range from their transducers times the beam's width across."""
+    if not len(rows):
+        return math.nan
+    rng = float(np.median(np.linalg.norm(points[rows] - view.origins[rows], axis=1)))
+    return 2.0 * rng * math.tan(math.radians(view.beam.beam_across_deg) / 2)
 
 
 def _sight(cloud: PointCloud, points: np.ndarray, rows: np.ndarray, is_reef: np.ndarray,
