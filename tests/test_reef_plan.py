@@ -85,6 +85,23 @@ def test_told_the_beam_the_sigmas_grow_with_the_footprint_and_cover_the_error() 
     assert ReefResult.from_dict(told.to_dict()).reefs[0].beam_footprint == told.reefs[0].beam_footprint
 
 
+def test_a_unit_fitted_as_another_kind_than_planned_is_not_placed(planned) -> None:
+    """On a sparse survey a fragment or a merged object is fitted as another kind and its centre
+    lands metres off: a unit planned as one of the run's designs and fitted as another is left
+    undecided, with the reason; a kind the run was not given is not judged."""
+    sim = planned
+    rows = [{**u, "id": str(u["id"]), "kind": {1: "cross1", 2: "cube"}.get(u["id"], "cross2")}
+            for u in sim.truth["plan"]]
+    r = extract_reefs(sim.cloud, design="cross2,cross1", plan=ReefPlan(tuple(rows), "plan"),
+                      placement_tolerance=1.0)
+    by_unit = {f.plan["plan_id"]: f for f in r.reefs if f.plan.get("plan_id")}
+    one = by_unit["1"]
+    assert one.design == "cross2" and one.plan["placement"] == "undecided"
+    assert one.plan["placement_note"] == "fitted as cross2, planned cross1: not placed"
+    assert "placement_note" not in by_unit["2"].plan and "placement_note" not in by_unit["3"].plan
+    assert ReefResult.from_dict(r.to_dict()).reefs[r.reefs.index(one)].plan == one.plan
+
+
 def test_a_unit_not_found_and_a_reef_not_in_the_plan(planned) -> None:
     sim = planned
     gone = sim.truth["reefs"][4]

@@ -209,6 +209,7 @@ def place_reefs(result: ReefResult, plan: ReefPlan, *, tolerance: float, positio
         if u is not None:
             fields.update(_offsets(r, units[u], tolerance, position_sigma, bearing_sigma_deg,
                                    turns.get(r.design, 360.0)))
+            fields.update(_kind_check(r, units[u], set(turns)))
         if inside is not None:
             fields["in_permit"] = bool(inside[k])
         out.append(replace(r, plan=fields))
@@ -297,6 +298,18 @@ def bearing_sigma_of(r: Reef, floor: float) -> float:
     if not (math.isfinite(r.beam_footprint) and r.length > 0):
         return floor
     return math.hypot(floor, math.degrees(BEAM_BEARING * r.beam_footprint / r.length))
+
+
+def _kind_check(r: Reef, unit: dict[str, Any], designs: set[str]) -> dict[str, Any]:
+    """A unit of a kind among the run's designs that its reef is not fitted as (another
+    design, or none) is not placed: its verdict is ``undecided``, and ``placement_note`` says
+    why (on a sparse survey such reefs are fragments or merged objects, their centres metres
+    off). Nothing when the plan gives no kind, or one the run was not given."""
+    kind = unit.get("kind")
+    if not kind or kind not in designs or r.design == kind:
+        return {}
+    return {"placement": "undecided",
+            "placement_note": f"fitted as {r.design or 'no design'}, planned {kind}: not placed"}
 
 
 def _decide(miss: float, sigma: float, tolerance: float) -> str:

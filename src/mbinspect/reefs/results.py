@@ -80,7 +80,7 @@ REST_KEYS = ("top_tilt_deg", "top_tilt_sigma_deg", "resting", "overturned", "res
 
 #: The keys of a reef's placement against the plan (:mod:`mbinspect.reefs.plan`).
 PLAN_KEYS = ("plan_id", "plan_dx", "plan_dy", "plan_offset", "plan_offset_sigma", "placement",
-             "bearing_error_deg", "bearing_error_sigma_deg", "in_permit")
+             "placement_note", "bearing_error_deg", "bearing_error_sigma_deg", "in_permit")
 
 
 @dataclass(frozen=True)

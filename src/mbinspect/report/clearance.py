@@ -41,7 +41,7 @@ def clearance_section(rows: Sequence[tuple[str, Mapping[str, Any]]], parameters:
 
 _PLACE_HEAD = {"reef": "reef", "unit": "planned unit", "offset": "offset (m)", "sigma": "1σ (m)",
                "dx": "east (m)", "dy": "north (m)", "bearing": "bearing error (°)",
-               "verdict": "placed at 95 %", "permit": "in the permit area"}
+               "verdict": "placed at 95 %", "note": "note", "permit": "in the permit area"}
 
 
 def placement_section(d: Mapping[str, Any]) -> tuple[str, str]:
@@ -50,10 +50,12 @@ def placement_section(d: Mapping[str, Any]) -> tuple[str, str]:
              "offset": _m(r.get("plan_offset")), "sigma": _m(r.get("plan_offset_sigma"), ".3f"),
              "dx": _m(r.get("plan_dx")), "dy": _m(r.get("plan_dy")),
              "bearing": _m(r.get("bearing_error_deg"), "+.1f"), "verdict": r.get("placement") or "",
+             "note": r.get("placement_note") or "",
              "permit": {True: "yes", False: "NO", None: ""}[r.get("in_permit")]}
             for r in d["reefs"]]
     rows += [{"reef": "not found", "unit": m["id"], "offset": "", "sigma": "", "dx": "", "dy": "",
-              "bearing": "", "verdict": "missing", "permit": ""} for m in d.get("plan_missing") or []]
+              "bearing": "", "verdict": "missing", "note": "", "permit": ""}
+             for m in d.get("plan_missing") or []]
     tol = d["parameters"].get("placement_tolerance")
     return (f"Placement against the plan (tolerance {tol:g} m)" if tol else "Placement against the plan",
             html_table(rows, list(_PLACE_HEAD), list(_PLACE_HEAD.values())))
@@ -66,7 +68,7 @@ def placement_lines(d: Mapping[str, Any]) -> list[dict[str, Any]]:
         if r.get("plan_id") is None:
             continue
         start = [r["x"] - r["plan_dx"], r["y"] - r["plan_dy"]]
-        keys = ("plan_id", "plan_offset", "placement", "bearing_error_deg", "in_permit")
+        keys = ("plan_id", "plan_offset", "placement", "placement_note", "bearing_error_deg", "in_permit")
         props = {k: r.get(k) for k in keys}
         out.append({"type": "Feature",
                     "geometry": {"type": "LineString", "coordinates": [start, [r["x"], r["y"]]]},
