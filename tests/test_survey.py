@@ -50,6 +50,7 @@ def _same_reefs(a, b) -> None:
         assert p.id == q.id
         assert abs(p.x - q.x) < 1e-3 and abs(p.y - q.y) < 1e-3
         assert abs(p.height - q.height) < 1e-3 and abs(p.area - q.area) < 1e-6
+        assert p.beam_footprint == pytest.approx(q.beam_footprint, abs=1e-3, nan_ok=True)
         assert p.sources == q.sources
 
 
@@ -253,6 +254,7 @@ def test_tiled_reefs_told_the_beam_are_the_in_memory_reefs(tmp_path: Path) -> No
     tiled = run_survey("reefs", files, opts, SurveyOptions(tiled=True, tile_size=130.0, workers=1))
     assert tiled.tiles >= 4
     _same_reefs(whole, tiled.result)
+    assert all(0.2 < r.beam_footprint < 0.6 for r in tiled.result.reefs)  # 1° at 17 m, 1-2 depths away
 
 
 @pytest.mark.slow
