@@ -12,12 +12,15 @@ import numpy as np
 import pytest
 
 from mbinspect.change import compare_surveys
+from mbinspect.change.grid import Grid
+from mbinspect.change.measure import MapNoise, scour_of
 from mbinspect.cli import main
 from mbinspect.cloud import PointCloud
 from mbinspect.errors import ParameterError
 from mbinspect.io import write
 from mbinspect.piles import locate_piles
 from mbinspect.piles.design import read_design
+from mbinspect.scour import pit_scour
 from mbinspect.simulate import simulate
 from mbinspect.simulate.resurvey import Change, resurvey
 
@@ -63,6 +66,24 @@ def test_each_pile_change_is_found_within_its_level_of_detection(jacket):
         for k in ("displacement", "settlement", "tilt_change_deg", "scour_depth"):
             v, lod = o.values[k], o.values[k + "_lod95"]
             assert abs(v - t[k]) <= max(lod, 0.03), (pid, k, v, t[k], lod)
+
+
+@pytest.mark.parametrize("centre", [(10.0, 10.0), (10.25, 10.25), (10.1, 10.37), (10.25, 10.0)])
+def test_a_pit_read_on_coarse_cells_is_the_true_pit_wherever_the_lattice_falls(centre):
+    # a pile standing on a cell corner puts the first ring's cell centres 0.06 m farther out
+    # than the ring's area, on a cell centre nearer in: a 0.6 m pit's flank read 12 mm shallow
+    # or 25 mm deep, where the ring's mean is now read at the ring's own radius
+    cx, cy = centre
+    x = (np.arange(40) + 0.5) * 0.5
+    gx, gy = np.meshgrid(x, x)
+    r = np.hypot(gx - cx, gy - cy)
+    low = np.where(r < 4.0, 0.6 * (1 + np.cos(np.pi * r / 4.0)) / 2, 0.0)
+    t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    pile = np.column_stack([cx + 0.75 * np.sin(t), cy + 0.75 * np.cos(t)])
+    diff = Grid(0.0, 0.0, 0.5, -low, np.ones(low.shape, int))
+    got = scour_of(diff, MapNoise(0.005), centre, [pile], reach=6.0)
+    true = pit_scour([(cx, cy, 0.6, 4.0)], pile, centre)
+    assert got["scour_depth"] == pytest.approx(true["scour_depth"], abs=0.002)
 
 
 def test_a_pile_cannot_be_removed_or_moved_in_the_simulator(jacket):

@@ -10,12 +10,12 @@ centre at which the rings' mean falls to half of it, going out from the deepest 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "grown", "pit_scour"]
+__all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "ring_radii", "grown", "pit_scour"]
 
 #: The rings' width (m).
 RING = 0.5
@@ -36,17 +36,19 @@ MIN_RING_AREA = 1.0
 
 @dataclass(frozen=True)
 class Scour:
-    """The scour of :func:`scour_rings` (m, m, m³), the deepest ring's cells, and the
-    number of cells summed into the volume."""
+    """The scour of :func:`scour_rings` (m, m, m³), the deepest ring's cells (how many
+    independent cells its mean is worth: fewer than it holds once that mean is read at the
+    ring's own radius), and the number of cells summed into the volume."""
 
     depth: float
     radius: float
     volume: float
-    deepest_cells: int
+    deepest_cells: float
     cells: int
 
 
-def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, reach: float) -> Scour:
+def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, reach: float,
+                ring_radius: np.ndarray | None = None) -> Scour:
     """Scour from the cells round one object.
 
     Parameters
@@ -60,6 +62,13 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
         One cell's area (m²).
     reach : float
         Cells farther out are not read (m).
+    ring_radius : ndarray, optional
+        Each ring's mean distance from the centre over its area (m; NaN: unknown), as
+        :func:`ring_radii` gives it. Given, each ring's mean is the lowering at that
+        distance, from a straight line through its cells' lowering against their distances:
+        a lattice of coarse cells puts its centres in a ring unevenly (round a pile standing
+        on a cell corner, 0.06 m farther out than the ring's area on average), and a pit's
+        flank falls by centimetres over that.
 
     Returns
     -------
@@ -80,6 +89,9 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
     k = np.floor(d / RING).astype(np.int64)
     n = np.bincount(k)
     mean = np.bincount(k, weights=low) / np.maximum(n, 1)
+    worth = n.astype(np.float64)
+    if ring_radius is not None:
+        mean, worth = _at_radius(k, d, low, mean, n, ring_radius)
     mean = np.where(n * cell_area >= MIN_RING_AREA - 1e-9, mean, np.nan)
     if not np.isfinite(mean).any():
         return Scour(0.0, 0.0, 0.0, 0, 0)
@@ -90,7 +102,53 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
         if np.isfinite(mean[j]) and mean[j] < depth / 2:
             radius = j * RING
             break
-    return Scour(depth, float(radius), float(low.sum() * cell_area), int(n[deepest]), int(len(low)))
+    return Scour(depth, float(radius), float(low.sum() * cell_area), float(worth[deepest]), int(len(low)))
+
+
+def _at_radius(k: np.ndarray, d: np.ndarray, low: np.ndarray, mean: np.ndarray, n: np.ndarray,
+               ring_radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each ring's mean carried along its cells' own slope (lowering against distance) to
+    the ring's mean radius, and what it is worth in cells (the slope's own error counted)."""
+    size = len(n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centre = np.bincount(k, weights=d, minlength=size) / n
+        off = d - centre[k]
+        sxx = np.bincount(k, weights=off * off, minlength=size)
+        slope = np.bincount(k, weights=off * (low - mean[k]), minlength=size) / sxx
+    target = np.full(size, np.nan)
+    m = min(size, len(ring_radius))
+    target[:m] = np.asarray(ring_radius, np.float64)[:m]
+    move = target - centre
+    ok = np.isfinite(move) & np.isfinite(slope) & (n >= 3) & (sxx > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        worth = np.where(ok, 1.0 / (1.0 / np.maximum(n, 1) + move**2 / sxx), n.astype(np.float64))
+    return np.where(ok, mean + slope * move, mean), worth
+
+
+def ring_radii(centre: tuple[float, float], inside: Callable[[np.ndarray], np.ndarray], reach: float,
+               step: float = 0.1) -> np.ndarray:
+    """Each ring's mean distance from ``centre`` over its area (m), rings of :data:`RING` out
+    to ``reach``: the mean over a ``step`` lattice of the points ``inside`` keeps (a mask of
+    the points, shape (M, 2), that lie in the area read); NaN for a ring it leaves empty.
+
+    Examples
+    --------
+    >>> r = ring_radii((0.0, 0.0), lambda p: np.hypot(*p.T) >= 1.5, 2.0, step=0.01)
+    >>> [round(float(v), 2) for v in r[3:]]
+    [1.76]
+    """
+    r = np.arange(step / 2, reach, step)
+    gx, gy = np.meshgrid(np.concatenate([-r[::-1], r]), np.concatenate([-r[::-1], r]))
+    dist = np.hypot(gx, gy).ravel()
+    keep = dist < reach
+    pts = np.column_stack([gx.ravel()[keep] + centre[0], gy.ravel()[keep] + centre[1]])
+    dist = dist[keep]
+    use = inside(pts)
+    k = np.floor(dist[use] / RING).astype(np.int64)
+    size = int(math.ceil(reach / RING))
+    n = np.bincount(k, minlength=size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.bincount(k, weights=dist[use], minlength=size) / n
 
 
 def grown(poly: np.ndarray, by: float = FOOT_MARGIN) -> np.ndarray:

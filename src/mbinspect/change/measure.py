@@ -23,7 +23,7 @@ import numpy as np
 from ..geometry import points_in_polygon
 from ..reefs.plan import bearing_sigma_of, position_sigma_of
 from ..reefs.results import Reef
-from ..scour import RING, grown, scour_rings
+from ..scour import RING, grown, ring_radii, scour_rings
 from .grid import Grid
 from .options import ChangeOptions
 from .register import Registration
@@ -231,7 +231,8 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     level = float(np.median(diffs[ref_cells]))
     area, sigma = diff.cell**2, noise.sigma
     share = max(area / max(noise.area, area), 1e-9)  # the independent share of a cell
-    s = scour_rings(d, -(diffs - level), area, reach=reach)
+    radii = _ring_radii(diff, centre, outlines, reach)
+    s = scour_rings(d, -(diffs - level), area, reach=reach, ring_radius=radii)
     if s.cells == 0:
         return nan
     ref_var = sigma**2 / max(ref_cells.sum() * share, 1.0)
@@ -243,6 +244,33 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
             "scour_radius": s.radius if found else math.nan,
             "scour_radius_lod95": 2 * RING if found else math.nan,
             "scour_volume": s.volume, "scour_volume_lod95": vol_lod}
+
+
+def _ring_radii(diff: Grid, centre: tuple[float, float], outlines: list[np.ndarray], reach: float
+                ) -> np.ndarray:
+    """Each ring's mean radius over the area the map reads in it: outside the grown outlines,
+    within a cell of a mapped cell (another object's cells, left out of the map, are left out
+    here too, but not the sliver between this unit's outline and the first cell centres
+    beyond it)."""
+    grown_polys = [grown(poly) for poly in outlines if len(poly) >= 3]
+    ny, nx = diff.z.shape
+    mapped = np.isfinite(diff.z)
+
+    def read(pts: np.ndarray) -> np.ndarray:
+        i = np.floor((pts[:, 0] - diff.x0) / diff.cell).astype(np.int64)
+        j = np.floor((pts[:, 1] - diff.y0) / diff.cell).astype(np.int64)
+        ok = np.zeros(len(pts), bool)
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                ii, jj = i + di, j + dj
+                there = (ii >= 0) & (jj >= 0) & (ii < nx) & (jj < ny)
+                there[there] = mapped[jj[there], ii[there]]
+                ok |= there
+        for poly in grown_polys:
+            ok[ok] = ~points_in_polygon(pts[ok], poly)
+        return ok
+
+    return ring_radii(centre, read, reach, step=diff.cell / 5)
 
 
 def _window(g: Grid, centre: tuple[float, float], r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
