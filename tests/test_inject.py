@@ -164,7 +164,7 @@ def test_inject_reefs_command(tmp_path, capsys):
     assert main(bad) == 2
     assert "bad.csv: line 2, column kind: 'pyramid'; expected one of cross1" in capsys.readouterr().err
     assert main(["inject", str(SURVEY), "--out", str(tmp_path / "c")]) == 2
-    assert "give --piles or --reefs" in capsys.readouterr().err
+    assert "give --piles, --reefs or --pit" in capsys.readouterr().err
 
 
 def test_inject_into_an_export_without_pings_estimates_them():
@@ -267,3 +267,28 @@ def test_inject_command_with_a_beam(tmp_path, capsys):
     assert truth["beam"]["beam_across_deg"] == 1.5 and truth["beam"]["detection"] == "phase"
     assert main([*args, "--overwrite", "--sub-rays", "4"]) == 2
     assert "--sub-rays: 4; expected an odd whole number of at least 3" in capsys.readouterr().err
+
+
+def test_a_pit_dug_into_a_real_seabed_lowers_each_sounding_along_its_ray(tmp_path, capsys):
+    cloud = read(SURVEY)
+    cx, cy = cloud.xyz[:, :2].mean(axis=0)
+    inj = inject(cloud.xyz, cloud.fields, pits=[(cx, cy, 0.4, 2.0)])
+    moved = inj.xyz - cloud.xyz
+    r = np.hypot(cloud.xyz[:, 0] - cx, cloud.xyz[:, 1] - cy)
+    near, far = r < 0.3, r > 2.2
+    assert near.sum() >= 5 and np.allclose(moved[far], 0.0)
+    # each sounding goes on along its own ray (outward, down) to where the bell has lowered the seabed
+    rn = np.hypot(inj.xyz[:, 0] - cx, inj.xyz[:, 1] - cy)
+    bell = np.where(rn < 2.0, 0.4 * (1 + np.cos(np.pi * np.minimum(rn / 2.0, 1.0))) / 2, 0.0)
+    dug = r < 2.0
+    assert np.abs(moved[dug, 2] + bell[dug]).max() < 1e-3
+    assert np.median(moved[near, 2]) < -0.3 and np.hypot(moved[dug, 0], moved[dug, 1]).max() < 0.7
+    assert inj.truth["pits"] == [{"x": cx, "y": cy, "depth": 0.4, "radius": 2.0}]
+    out = tmp_path / "pit"
+    assert main(["inject", str(SURVEY), "--pit", f"{cx:.3f},{cy:.3f},0.4,2", "--out", str(out)]) == 0
+    back = read(out / "soundings.npz")
+    assert np.allclose(back.xyz, inj.xyz, atol=2e-3)
+    assert main(["inject", str(SURVEY), "--pit", "1,2,deep,3", "--out", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err
+    assert "--pit: '1,2,deep,3'; expected X,Y,DEPTH,RADIUS in metres (four numbers)" in err
+    assert not (tmp_path / "b").exists()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -27,8 +28,9 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
     from ..simulate import write_bundle
 
     check_input(args)
-    if not args.piles and not args.reefs:
-        raise ParameterError("nothing to inject; give `piles` or `reefs` (or both)", option="piles")
+    pits = [_pit(v) for v in args.pit or ()]
+    if not args.piles and not args.reefs and not pits:
+        raise ParameterError("nothing to inject; give `piles`, `reefs` or `pit`", option="piles")
     piles = read_pile_file(args.piles) if args.piles else []
     reefs = read_reef_file(args.reefs) if args.reefs else []
     out = Path(args.out or "inject-out")
@@ -37,8 +39,10 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
         cloud = read_input(args, rep)
         t = time.perf_counter()
         given = given_options(args, Beam)
-        inj = inject(cloud.xyz, cloud.fields, piles=piles, reefs=reefs, beam=Beam(**given) if given else None)
-        rep.debug(f"injected {len(piles)} piles and {len(reefs)} reefs in {time.perf_counter() - t:.2f} s")
+        inj = inject(cloud.xyz, cloud.fields, piles=piles, reefs=reefs, beam=Beam(**given) if given else None,
+                     pits=pits)
+        rep.debug(f"injected {len(piles)} piles, {len(reefs)} reefs and {len(pits)} pits in "
+                  f"{time.perf_counter() - t:.2f} s")
         injected = PointCloud(inj.xyz, dict(cloud.fields), source=cloud.source, crs=cloud.crs,
                               meta=dict(cloud.meta))
         truth = {**inj.to_dict(), "survey": file_record(args.input), "command_line": ["mbinspect", *argv]}
@@ -49,9 +53,10 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
     hits = [f"pile {k}: {v:,}" for k, v in counts["per_pile"].items()]
     hits += [f"reef {k}: {v:,}" for k, v in counts["per_reef"].items()]
     written = " and ".join(n for n, want in (("design.csv", piles), ("reference.csv", reefs)) if want)
-    what = " and ".join(f"{len(v)} {k}" for k, v in (("piles", piles), ("reefs", reefs)) if v)
+    what = " and ".join(f"{len(v)} {k}" for k, v in (("piles", piles), ("reefs", reefs), ("pits", pits)) if v)
     rep.info(f"{what} injected into {len(cloud):,} soundings "
-             f"({', '.join(hits)}); written to {out}/soundings.npz with truth.json and {written}")
+             f"({', '.join(hits) or 'the seabed lowered'}); written to {out}/soundings.npz with truth.json"
+             + (f" and {written}" if written else ""))
     for note in inj.truth["warnings"]:
         print(f"mbinspect: warning: {note}", file=sys.stderr)
     if counts["without_ping_geometry"]:
@@ -62,6 +67,20 @@ def _cmd_inject(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) ->
             if v == 0:
                 print(f"mbinspect: warning: {kind} {k}: no beam of the survey reaches it", file=sys.stderr)
     return 0
+
+
+def _pit(text: str) -> tuple[float, float, float, float]:
+    """``X,Y,DEPTH,RADIUS`` (m) as a pit, or one line naming the option and the value."""
+    parts = text.split(",")
+    try:
+        x, y, depth, radius = (float(v) for v in parts)
+    except ValueError:
+        raise ParameterError(f"pit: {text!r}; expected X,Y,DEPTH,RADIUS in metres (four numbers)",
+                             option="pit") from None
+    if not all(math.isfinite(v) for v in (x, y, depth, radius)) or depth < 0 or radius <= 0:
+        raise ParameterError(f"pit: {text!r}; expected finite numbers, DEPTH at least 0 and RADIUS above 0",
+                             option="pit")
+    return x, y, depth, radius
 
 
 def add_parser(sub: Any) -> None:
@@ -77,7 +96,8 @@ def add_parser(sub: Any) -> None:
              "example:\n  mbinspect inject line.all --piles piles.csv --out injected\n"
              "  mbinspect piles injected/soundings.npz --radius 0.5 --design injected/design.csv\n"
              "  mbinspect inject line.all --reefs reefs.csv --out reefs-in\n"
-             "  mbinspect reefs reefs-in/soundings.npz --reference reefs-in/reference.csv\n\n"
+             "  mbinspect reefs reefs-in/soundings.npz --reference reefs-in/reference.csv\n"
+             "  mbinspect inject line.all --piles piles.csv --pit 500012,6400034,0.5,3 --out scoured\n\n"
              "piles.csv: id,x,y,radius and top (elevation, m) or height (above the seabed, m);\n"
              "optional tilt_deg, tilt_azimuth_deg, group\n"
              "reefs.csv: id,x,y,kind (cross2, cross1, hollow, triangle, cube); optional bearing_deg,\n"
@@ -85,6 +105,9 @@ def add_parser(sub: Any) -> None:
     add_input(p)
     p.add_argument("--piles", metavar="CSV", help="the piles to inject (see below)")
     p.add_argument("--reefs", metavar="CSV", help="the reefs to inject (see below)")
+    p.add_argument("--pit", metavar="X,Y,DEPTH,RADIUS", action="append",
+                   help="dig a scour pit into the survey's seabed first (m; a cosine bell DEPTH deep at "
+                        "X,Y and RADIUS wide, as the simulator digs them); repeat for more")
     p.add_argument("--out", metavar="DIR", help="output folder (default inject-out)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out folder")
     add_flags(p.add_argument_group("the survey's beam (thin rays unless a width is given)"), Beam)

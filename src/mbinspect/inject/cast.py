@@ -88,7 +88,8 @@ def _scene_reefs(pts: np.ndarray, origin: np.ndarray, reefs: Sequence[InjectedRe
 
 
 def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[InjectedPile] = (),
-           reefs: Sequence[InjectedReef] = (), beam: Beam | None = None) -> Injection:
+           reefs: Sequence[InjectedReef] = (), beam: Beam | None = None,
+           pits: Sequence[tuple[float, float, float, float]] = ()) -> Injection:
     """Put ``piles`` and ``reefs`` into a survey's soundings (see the module's notes).
 
     Parameters
@@ -105,6 +106,11 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     beam : Beam, optional
         The survey's beam width and bottom detection: the objects are seen through cones
         (:mod:`mbinspect.simulate.beam`); thin rays when not given.
+    pits : sequence of (x, y, depth, radius)
+        Scour pits dug into the survey's own seabed first (m; each a cosine bell ``depth`` m
+        deep at its centre and ``radius`` m wide, as the simulator digs them): each sounding
+        whose seabed point lies in one goes on along its own ray to the lowered seabed, its
+        real noise with it (:func:`dig_pits`).
 
     Returns
     -------
@@ -116,8 +122,12 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
         No ping structure to estimate, an object outside the survey, objects that
         overlap, a reef kind that is not a built-in design or buried deeper than its height.
     """
-    if not piles and not reefs:
-        raise InputError("nothing to inject; expected piles or reefs")
+    if not piles and not reefs and not pits:
+        raise InputError("nothing to inject; expected piles, reefs or pits")
+    for pit in pits:
+        if len(pit) != 4 or not all(math.isfinite(v) for v in pit) or pit[2] < 0 or pit[3] <= 0:
+            raise InputError(f"pit {tuple(pit)}: expected (x, y, depth, radius), depth at least 0, "
+                             "radius above 0")
     pts = np.asarray(xyz, float)
     warnings = []
     if "ping" in fields and "beam_angle" in fields:
@@ -140,7 +150,10 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     if "extra_detection" in fields:
         ok = ok & ~np.asarray(fields["extra_detection"], bool)
     scene = Scene(Seabed(z0=float(np.median(pts[:, 2]))), piles=tuple(scene_piles), reefs=tuple(scene_reefs))
-    out, labels, ident = _moved(pts, local, origin, ping, angle, o, axes, ok, scene, beam)
+    dug = local
+    if pits:
+        dug = dig_pits(local, o, ok, [(x - origin[0], y - origin[1], d, r) for x, y, d, r in pits])
+    out, labels, ident = _moved(pts, dug, origin, ping, angle, o, axes, ok, scene, beam)
     counts = {"soundings": int(len(pts)), "on_piles": int((labels == LABELS["pile"]).sum()),
               "on_reefs": int((labels == LABELS["reef"]).sum()),
               "per_pile": {str(p["id"]): int(((labels == LABELS["pile"]) & (ident == p["id"])).sum())
@@ -151,7 +164,9 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     truth = {"preset": "inject", "piles": truth_piles, "spacings": truth_spacings(truth_piles),
              "counts": counts, "warnings": warnings,
              "design": [{"group": p["group"], "id": p["id"], "x": p["x"], "y": p["y"]} for p in truth_piles],
-             "reefs": truth_reefs}
+             "reefs": truth_reefs,
+             "pits": [{"x": float(x), "y": float(y), "depth": float(d), "radius": float(r)}
+                      for x, y, d, r in pits]}
     if beam is not None:
         truth["beam"] = beam.to_dict()
     return Injection(out, labels, ident, truth)
@@ -171,7 +186,7 @@ def _moved(pts: np.ndarray, local: np.ndarray, origin: np.ndarray, ping: np.ndar
     """
     labels = np.zeros(len(pts), np.int8)
     ident = np.zeros(len(pts), np.int32)
-    out = pts.copy()
+    out = local + [origin[0], origin[1], 0.0]
     rows = np.flatnonzero(ok)
     if not len(rows):
         return out, labels, ident
@@ -209,6 +224,58 @@ def _moved(pts: np.ndarray, local: np.ndarray, origin: np.ndarray, ping: np.ndar
         labels[rows[hit]] = lab[hit]
         ident[rows[hit]] = idn[hit]
     return out, labels, ident
+
+
+def dig_pits(local: np.ndarray, o: np.ndarray, ok: np.ndarray,
+             pits: Sequence[tuple[float, float, float, float]], steps: int = 24) -> np.ndarray:
+    """The soundings with scour pits dug into their seabed: each whose point lies in a pit
+    goes on along its ray (from its transducer ``o``) to the first place the ray meets the
+    seabed lowered there, the seabed about the sounding taken as level (m, one frame).
+
+    Examples
+    --------
+    >>> pts = np.array([[0.0, 0.0, -10.0], [5.0, 0.0, -10.0], [9.0, 0.0, -10.0]])
+    >>> o = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    >>> dug = dig_pits(pts, o, np.ones(3, bool), [(0.0, 0.0, 0.5, 4.0)])
+    >>> [round(float(v), 3) for v in dug[:, 2]]
+    [-10.5, -10.0, -10.0]
+    """
+    out = np.array(local, np.float64, copy=True)
+    if not pits:
+        return out
+
+    def lowering(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        low = np.zeros(np.shape(x))
+        for px, py, depth, radius in pits:
+            r = np.hypot(x - px, y - py)
+            low += np.where(r < radius, depth * (1 + np.cos(np.pi * np.minimum(r / radius, 1.0))) / 2, 0.0)
+        return low
+
+    rows = np.flatnonzero(ok)
+    rows = rows[lowering(out[rows, 0], out[rows, 1]) > 0]
+    if not len(rows):
+        return out
+    p0 = out[rows]
+    d = p0 - o[rows]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    down = np.maximum(-d[:, 2], 0.05)  # metres down per metre along the ray
+
+    def below(s: np.ndarray) -> np.ndarray:  # > 0 once the ray is under the lowered seabed
+        return s * down - lowering(p0[:, 0] + s * d[:, 0], p0[:, 1] + s * d[:, 1])
+
+    # the first crossing: march to it, then halve the bracket
+    reach = sum(p[2] for p in pits) / down
+    grid = reach[:, None] * np.linspace(0.0, 1.0, steps + 1)[None, :]
+    f = np.column_stack([below(grid[:, k]) for k in range(steps + 1)])
+    first = np.argmax(f >= 0, axis=1)
+    hi = grid[np.arange(len(rows)), np.maximum(first, 1)]
+    lo = grid[np.arange(len(rows)), np.maximum(first - 1, 0)]
+    for _ in range(30):
+        mid = (lo + hi) / 2
+        under = below(mid) >= 0
+        hi, lo = np.where(under, mid, hi), np.where(under, lo, mid)
+    out[rows] = p0 + hi[:, None] * d
+    return out
 
 
 def _check_apart(piles: Sequence[InjectedPile], reefs: Sequence[InjectedReef]) -> None:
