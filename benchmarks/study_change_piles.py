@@ -4,7 +4,8 @@ scoured round 0.3-1.0 m deep), on other lines, with other noise and a datum and 
 offset; each survey's piles located, then compared
 (:func:`mbinspect.change.compare_surveys`) against the true change.
 
-Run: ``python benchmarks/study_change_piles.py [--seeds 10] [--configs jacket,...] [--workers 2]``.
+Run: ``python benchmarks/study_change_piles.py [--seeds 10] [--configs jacket,...] [--workers 2]``;
+``--real [--placements 3]``: four piles injected into the real files instead (:func:`_real`).
 
 Rows per configuration: the registration's error (plan against the offset applied; the
 vertical error is not scored here, each survey's lines realising their own datum); per kind
@@ -114,7 +115,134 @@ def _summary(name: str, rs: list[dict]) -> tuple[list[str], list[list[str]]]:
     return det, rows
 
 
+#: The real study's second epoch: pile 1 settled (m), a pit dug round pile 2 (depth, radius m),
+#: piles 3 and 4 as they were; and the offset of its soundings (m).
+REAL_SETTLE, REAL_PIT, REAL_SHIFT = 0.06, (0.5, 3.0), (0.2, -0.1, 0.08)
+
+
+def _real(placements: int, only: str = "") -> None:
+    """Four piles (a jacket's square, as ``study_inject`` places them) injected into each real
+    file that holds a square, its pings split in two (even and odd): two surveys of one place
+    with the real seabed and the real noise. The second epoch has pile 1 settled
+    :data:`REAL_SETTLE`, a scour pit (``inject``'s ``pits``) dug round pile 2 into the real
+    seabed, and its soundings offset by :data:`REAL_SHIFT`. Scored: the registration against
+    the offset (the halves share their lines, so the offset put in is the one they realise),
+    the settlement and the scour depth against the truth (:func:`mbinspect.scour.pit_scour` on
+    the injected circles), each within its LoD95, and the unchanged piles called changed."""
+    from dataclasses import replace
+
+    from mbinspect.errors import MBInspectError
+    from mbinspect.inject import inject
+    from mbinspect.io import PointCloud
+    from mbinspect.scour import pit_scour
+    from study_inject import RADIUS, _files, _jacket, site
+
+    shift = np.asarray(REAL_SHIFT)
+    t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    rows = []
+    for name, cloud, layout in _files(only):
+        if layout != "square" or "ping" not in cloud.fields:
+            continue
+        cx, cy, side = site(cloud)
+        even = (np.asarray(cloud.fields["ping"]) % 2) == 0
+        halves = [PointCloud(cloud.xyz[m], {k: np.asarray(v)[m] for k, v in cloud.fields.items()},
+                             crs=cloud.crs) for m in (even, ~even)]
+        tally: Counter[str] = Counter()
+        by: Counter[str] = Counter()
+        regs, errs = [], {"settlement": [], "scour_depth": [], "scour (unchanged)": []}
+        for k in range(placements):
+            piles = _jacket(cx, cy, side, np.random.default_rng(k))
+            pit = (piles[1].x, piles[1].y, *REAL_PIT)
+            design = Design(positions={p.id: (p.x, p.y) for p in piles}, groups={p.id: 1 for p in piles})
+            try:
+                ib = inject(halves[0].xyz, halves[0].fields, piles=piles)
+                # the same tops in both epochs (a height would stand on each half's own seabed)
+                top = {p["id"]: p["z"] for p in ib.truth["piles"]}
+                after = [replace(p, top=top[p.id] - (REAL_SETTLE if p.id == 1 else 0.0), height=None)
+                         for p in piles]
+                ia = inject(halves[1].xyz, halves[1].fields, piles=after, pits=[pit])
+                a_xyz = ia.xyz + shift
+                pb = locate_piles(PointCloud(ib.xyz, dict(halves[0].fields)), radius=RADIUS, count=4,
+                                  design=design)
+                pa = locate_piles(PointCloud(a_xyz, dict(halves[1].fields)), radius=RADIUS, count=4,
+                                  design=Design(positions={i: (x + shift[0], y + shift[1])
+                                                           for i, (x, y) in design.positions.items()},
+                                                groups=design.groups))
+                res = compare_surveys(pb, pa, ib.xyz, a_xyz, before_fields=halves[0].fields,
+                                      after_fields=halves[1].fields)
+            except MBInspectError as exc:
+                tally["stopped: " + str(exc)[:50]] += 1
+                continue
+            g = res.registration
+            regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dy,
+                         g.sigma_dz))
+            circles = {p.id: np.column_stack([p.x + RADIUS * np.sin(t), p.y + RADIUS * np.cos(t)])
+                       for p in piles}
+            tops_b = {p["id"]: p["z"] for p in ib.truth["piles"]}
+            tops_a = {p["id"]: p["z"] for p in ia.truth["piles"]}
+            for o in res.objects:
+                if o.id_before is None or o.id_before != o.id_after:
+                    tally["not matched"] += 1
+                    continue
+                i, v = o.id_before, o.values
+                p = next(q for q in piles if q.id == i)
+                scour = pit_scour([pit], circles[i], (p.x, p.y),
+                                  others=[c for j, c in circles.items() if j != i])["scour_depth"]
+                errs["settlement"].append((v["settlement"] - (tops_b[i] - tops_a[i]), v["settlement_lod95"]))
+                errs["scour_depth" if i == 2 else "scour (unchanged)"].append(
+                    (v["scour_depth"] - scour, v["scour_depth_lod95"]))
+                if i == 1:
+                    tally["settled found"] += "settlement" in o.detected
+                elif i == 2:
+                    tally["scoured found"] += "scour_depth" in o.detected
+                else:
+                    tally["unchanged"] += 1
+                    lod = v["scour_depth_lod95"]
+                    wrong = [m for m in o.detected if m != "scour_depth" or scour < lod / 2]
+                    tally["unchanged called changed"] += bool(wrong)
+                    by.update(wrong)
+        r = np.array(regs).reshape(-1, 6)
+        run = len(regs)
+
+        def cell(m: str, errs: dict = errs) -> str:
+            e = np.array(errs[m]).reshape(-1, 2)
+            e = e[np.isfinite(e).all(axis=1)]
+            if not len(e):
+                return "-"
+            return (f"{1000 * math.sqrt(np.mean(e[:, 0] ** 2)):.0f} / {1000 * np.abs(e[:, 0]).max():.0f}, "
+                    f"{100 * np.mean(np.abs(e[:, 0]) <= e[:, 1]):.0f} %")
+
+        rows.append([name[:34], f"{run}/{placements} ({len(cloud.xyz) // 1000} k)",
+                     f"{1000 * math.sqrt(np.mean(r[:, 0] ** 2 + r[:, 1] ** 2)):.0f}" if run else "-",
+                     f"{1000 * math.sqrt(np.mean(r[:, 2] ** 2)):.0f}" if run else "-",
+                     f"{100 * np.mean((abs(r[:, 0]) <= 2 * r[:, 3]) & (abs(r[:, 1]) <= 2 * r[:, 4])):.0f} %"
+                     if run else "-",
+                     f"{100 * np.mean(abs(r[:, 2]) <= 2 * r[:, 5]):.0f} %" if run else "-",
+                     f"{tally['settled found']}/{run}", cell("settlement"),
+                     f"{tally['scoured found']}/{run}", cell("scour_depth"), cell("scour (unchanged)"),
+                     f"{tally['unchanged called changed']}/{tally['unchanged']}",
+                     ", ".join(f"{k} {v}" for k, v in by.most_common()),
+                     "; ".join(f"{k} ×{v}" for k, v in tally.items() if k.startswith(("stopped", "not")))])
+    print(table(["file (pings split even/odd)", "placements run", "plan reg err RMS mm", "dz err RMS mm",
+                 "dx, dy within 2σ", "dz within 2σ", f"settled {REAL_SETTLE} m found",
+                 "settlement err RMS / max mm, within LoD95", f"scoured {REAL_PIT[0]} m found",
+                 "scour depth err RMS / max mm, within LoD95", "scour on the unchanged: err, within LoD95",
+                 "unchanged called changed", "by", "left out"], rows))
+
+
 def main() -> None:
+    import argparse
+
+    from _common import own_flags
+
+    ap = argparse.ArgumentParser(add_help=False)
+    ap.add_argument("--real", action="store_true")
+    ap.add_argument("--placements", type=int, default=3)
+    ap.add_argument("--only", default="", help="the real files whose name holds this")
+    known = own_flags(ap)
+    if known.real:
+        _real(known.placements, known.only)
+        return
     chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
     dets, errs = [], []
     for name in chosen:

@@ -81,7 +81,7 @@ def test_a_pit_read_on_coarse_cells_is_the_true_pit_wherever_the_lattice_falls(c
     t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
     pile = np.column_stack([cx + 0.75 * np.sin(t), cy + 0.75 * np.cos(t)])
     diff = Grid(0.0, 0.0, 0.5, -low, np.ones(low.shape, int))
-    got = scour_of(diff, MapNoise(0.005), centre, [pile], reach=6.0)
+    got = scour_of(diff, MapNoise(0.005), centre, [pile], reach=6.0, at_radius=True)
     true = pit_scour([(cx, cy, 0.6, 4.0)], pile, centre)
     assert got["scour_depth"] == pytest.approx(true["scour_depth"], abs=0.002)
 

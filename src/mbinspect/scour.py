@@ -126,16 +126,17 @@ def _at_radius(k: np.ndarray, d: np.ndarray, low: np.ndarray, mean: np.ndarray, 
 
 
 def ring_radii(centre: tuple[float, float], inside: Callable[[np.ndarray], np.ndarray], reach: float,
-               step: float = 0.1) -> np.ndarray:
+               step: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
     """Each ring's mean distance from ``centre`` over its area (m), rings of :data:`RING` out
     to ``reach``: the mean over a ``step`` lattice of the points ``inside`` keeps (a mask of
-    the points, shape (M, 2), that lie in the area read); NaN for a ring it leaves empty.
+    the points, shape (M, 2), that lie in the area read), NaN for a ring it leaves empty; and
+    how many lattice points each ring holds.
 
     Examples
     --------
-    >>> r = ring_radii((0.0, 0.0), lambda p: np.hypot(*p.T) >= 1.5, 2.0, step=0.01)
-    >>> [round(float(v), 2) for v in r[3:]]
-    [1.76]
+    >>> r, n = ring_radii((0.0, 0.0), lambda p: np.hypot(*p.T) >= 1.5, 2.0, step=0.01)
+    >>> [round(float(v), 2) for v in r[3:]], int(n[3])
+    ([1.76], 54988)
     """
     r = np.arange(step / 2, reach, step)
     gx, gy = np.meshgrid(np.concatenate([-r[::-1], r]), np.concatenate([-r[::-1], r]))
@@ -148,7 +149,7 @@ def ring_radii(centre: tuple[float, float], inside: Callable[[np.ndarray], np.nd
     size = int(math.ceil(reach / RING))
     n = np.bincount(k, minlength=size)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.bincount(k, weights=dist[use], minlength=size) / n
+        return np.bincount(k, weights=dist[use], minlength=size) / n, n
 
 
 def grown(poly: np.ndarray, by: float = FOOT_MARGIN) -> np.ndarray:

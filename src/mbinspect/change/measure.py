@@ -54,7 +54,8 @@ class MapNoise:
     scour_null95: float = 0.0
 
 
-def null_scour(diff: Grid, noise: MapNoise, radius: float, *, reach: float) -> tuple[float, int]:
+def null_scour(diff: Grid, noise: MapNoise, radius: float, *, reach: float, at_radius: bool = False
+               ) -> tuple[float, int]:
     """The scour depth the map shows where nothing was dug: read as :func:`scour_of` reads
     it round centres on a lattice ``reach`` m apart over the map (each with a footprint of
     ``radius`` m left out, as a unit's is; farther apart on a large map, about 300 in
@@ -83,7 +84,8 @@ def null_scour(diff: Grid, noise: MapNoise, radius: float, *, reach: float) -> t
             wx, wy, wz = _window(diff, (cx, cy), reach + 2.0)
             if np.isfinite(wz[np.hypot(wx - cx, wy - cy) <= reach + 2.0]).mean() < 0.6:
                 continue
-            d = scour_of(diff, noise, (cx, cy), [ring + (cx, cy)], reach=reach)["scour_depth"]
+            d = scour_of(diff, noise, (cx, cy), [ring + (cx, cy)], reach=reach,
+                         at_radius=at_radius)["scour_depth"]
             if math.isfinite(d):
                 depths.append(max(d, 0.0))
     if len(depths) < 20:
@@ -210,11 +212,12 @@ def _tilts(b: Reef, a: Reef, notes: list[str]) -> dict[str, Any]:
 
 
 def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines: list[np.ndarray], *,
-             reach: float) -> dict[str, float]:
+             reach: float, at_radius: bool = False) -> dict[str, float]:
     """Scour round one unit from the registered difference map: the lowering against the
     seabed 2 m beyond ``reach``, read by :func:`mbinspect.scour.scour_rings`, each with its
     level of detection from the map's ``noise`` (cells within its area sharing their
-    errors)."""
+    errors). ``at_radius``: each ring read all round is read at its own radius
+    (:func:`_ring_radii`), for a round object (a pile) whose pit is round it too."""
     x, y, z = _window(diff, centre, reach + 2.0)
     dist = np.hypot(x - centre[0], y - centre[1])
     near = dist <= reach + 2.0
@@ -231,7 +234,7 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     level = float(np.median(diffs[ref_cells]))
     area, sigma = diff.cell**2, noise.sigma
     share = max(area / max(noise.area, area), 1e-9)  # the independent share of a cell
-    radii = _ring_radii(diff, centre, outlines, reach)
+    radii = _ring_radii(diff, centre, outlines, reach) if at_radius else None
     s = scour_rings(d, -(diffs - level), area, reach=reach, ring_radius=radii)
     if s.cells == 0:
         return nan
@@ -246,12 +249,17 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
             "scour_volume": s.volume, "scour_volume_lod95": vol_lod}
 
 
+#: The share of a ring (outside the object) the map must read for the ring to be read at its radius.
+ALL_ROUND = 0.9
+
+
 def _ring_radii(diff: Grid, centre: tuple[float, float], outlines: list[np.ndarray], reach: float
                 ) -> np.ndarray:
     """Each ring's mean radius over the area the map reads in it: outside the grown outlines,
-    within a cell of a mapped cell (another object's cells, left out of the map, are left out
-    here too, but not the sliver between this unit's outline and the first cell centres
-    beyond it)."""
+    within a cell of a mapped cell (not the sliver between the object's outline and the first
+    cell centres beyond it); NaN for a ring the map does not read all round (nine tenths of
+    it): a neighbour's footprint, the swath's edge or a hole in the map leaves the ring's
+    lowering no longer a matter of the distance alone, and it is read as its cells' mean."""
     grown_polys = [grown(poly) for poly in outlines if len(poly) >= 3]
     ny, nx = diff.z.shape
     mapped = np.isfinite(diff.z)
@@ -270,7 +278,15 @@ def _ring_radii(diff: Grid, centre: tuple[float, float], outlines: list[np.ndarr
             ok[ok] = ~points_in_polygon(pts[ok], poly)
         return ok
 
-    return ring_radii(centre, read, reach, step=diff.cell / 5)
+    def outside(pts: np.ndarray) -> np.ndarray:
+        ok = np.ones(len(pts), bool)
+        for poly in grown_polys:
+            ok[ok] = ~points_in_polygon(pts[ok], poly)
+        return ok
+
+    radii, n_read = ring_radii(centre, read, reach, step=diff.cell / 5)
+    _, n_all = ring_radii(centre, outside, reach, step=diff.cell / 5)
+    return np.where(n_read >= ALL_ROUND * np.maximum(n_all, 1), radii, np.nan)
 
 
 def _window(g: Grid, centre: tuple[float, float], r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

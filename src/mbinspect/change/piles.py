@@ -89,7 +89,7 @@ def pile_change(b: PileFit, a: PileFit, a_xy: tuple[float, float], reg: Registra
         (fb, _), (fa, foot) = pile_footprint(b, heights[0]), pile_footprint(a, heights[1])
         move = np.subtract(a_xy, (a.x, a.y))
         v.update(scour_of(diff, noise, (foot[0] + move[0], foot[1] + move[1]), [fb, fa + move],
-                          reach=opt.scour_reach))
+                          reach=opt.scour_reach, at_radius=True))
     else:
         v.update(dict.fromkeys(SCOUR_KEYS, math.nan))
         notes.append("scour: no difference map")

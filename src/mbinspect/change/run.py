@@ -97,7 +97,8 @@ def compare_surveys(before: Result, after: Result, before_points: np.ndarray,
     diff, diff_sigma = _difference(db, da, reg, _away(db, spots, opt.exclude_buffer))
     diff = _without_objects(diff, before, after, reg, (db, da))
     noise = MapNoise(diff_sigma, _shared_area(diff, diff_sigma))
-    null95, null_n = null_scour(diff, noise, _typical_radius(before), reach=opt.scour_reach)
+    null95, null_n = null_scour(diff, noise, _typical_radius(before), reach=opt.scour_reach,
+                                at_radius=isinstance(before, PileResult))
     noise = MapNoise(noise.sigma, noise.area, null95)
     if isinstance(before, PileResult) and isinstance(after, PileResult):
         objects = _piles(before, after, reg, opt, diff, noise, (db, da))
