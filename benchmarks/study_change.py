@@ -80,9 +80,15 @@ def run_one(args: tuple[str, int]) -> list[dict]:
 def _datum(sim, shift) -> float:
     """The vertical offset a survey's lines realise: the median of its seabed soundings'
     heights over the true seabed (each line keeps its own offset; their mix is the survey's
-    datum), away from the scour pits."""
+    datum), away from the scour pits, on the beams the registration reads (within
+    ``inner_angle_deg`` of nadir: a line's sound-speed error bends its outer beams up or down,
+    and a datum taken on every beam carried their mix, 2.8 mm RMS from the registration's
+    with 80 % within its 2 sigma where the inner beams' gave 2.0 mm and 100 %, 10 seeds)."""
+    from mbinspect.change.options import ChangeOptions
+
     ox, oy = sim.scene.origin
-    sea = sim.labels == 0
+    sea = (sim.labels == 0) & (np.abs(np.asarray(sim.cloud.fields["beam_angle"], np.float64))
+                               <= ChangeOptions().inner_angle_deg)
     xyz = sim.cloud.xyz[sea] - np.asarray(shift)
     x, y = xyz[:, 0] - ox, xyz[:, 1] - oy
     far = np.ones(len(x), bool)

@@ -174,6 +174,9 @@ def _real(placements: int, only: str = "") -> None:
                 tally["stopped: " + str(exc)[:50]] += 1
                 continue
             g = res.registration
+            if not math.isfinite(g.sigma_dz):
+                tally["not registered: " + g.note[:50]] += 1
+                continue
             regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dy,
                          g.sigma_dz))
             circles = {p.id: np.column_stack([p.x + RADIUS * np.sin(t), p.y + RADIUS * np.cos(t)])
@@ -210,7 +213,8 @@ def _real(placements: int, only: str = "") -> None:
             if not len(e):
                 return "-"
             return (f"{1000 * math.sqrt(np.mean(e[:, 0] ** 2)):.0f} / {1000 * np.abs(e[:, 0]).max():.0f}, "
-                    f"{100 * np.mean(np.abs(e[:, 0]) <= e[:, 1]):.0f} %")
+                    f"{100 * np.mean(np.abs(e[:, 0]) <= e[:, 1]):.0f} % "
+                    f"(LoD95 {1000 * np.median(e[:, 1]):.0f})")
 
         rows.append([name[:34], f"{run}/{placements} ({len(cloud.xyz) // 1000} k)",
                      f"{1000 * math.sqrt(np.mean(r[:, 0] ** 2 + r[:, 1] ** 2)):.0f}" if run else "-",
@@ -225,8 +229,8 @@ def _real(placements: int, only: str = "") -> None:
                      "; ".join(f"{k} ×{v}" for k, v in tally.items() if k.startswith(("stopped", "not")))])
     print(table(["file (pings split even/odd)", "placements run", "plan reg err RMS mm", "dz err RMS mm",
                  "dx, dy within 2σ", "dz within 2σ", f"settled {REAL_SETTLE} m found",
-                 "settlement err RMS / max mm, within LoD95", f"scoured {REAL_PIT[0]} m found",
-                 "scour depth err RMS / max mm, within LoD95", "scour on the unchanged: err, within LoD95",
+                 "settlement err RMS / max mm, within LoD95 (median)", f"scoured {REAL_PIT[0]} m found",
+                 "scour depth err RMS / max mm, within LoD95 (median)", "scour on the unchanged: the same",
                  "unchanged called changed", "by", "left out"], rows))
 
 
