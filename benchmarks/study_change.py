@@ -21,7 +21,6 @@ share of measures within their 95 % level of detection.
 from __future__ import annotations
 
 import math
-import re
 import sys
 from collections import Counter
 from pathlib import Path
@@ -263,20 +262,13 @@ def _real(placements: int, ring: int = 6) -> None:
     (:func:`_ring`, where the file covers them)."""
     from dataclasses import replace
 
-    from mbinspect.errors import MBInspectError
     from mbinspect.inject import inject
     from mbinspect.io import PointCloud
-    from study_inject import _files, _reef_square, site
+    from study_inject import _reef_square, compared, paired_halves
 
     shift = np.array([0.2, -0.1, 0.08])
     rows = []
-    for name, cloud, layout in _files():
-        if layout != "square" or "ping" not in cloud.fields:
-            continue
-        cx, cy, side = site(cloud)
-        even = (np.asarray(cloud.fields["ping"]) % 2) == 0
-        halves = [PointCloud(cloud.xyz[m], {k: np.asarray(v)[m] for k, v in cloud.fields.items()},
-                             crs=cloud.crs) for m in (even, ~even)]
+    for name, cloud, (cx, cy, side), halves in paired_halves():
         tally: Counter[str] = Counter()
         regs, errs, heights = [], [], []
         for k in range(placements):
@@ -296,7 +288,7 @@ def _real(placements: int, ring: int = 6) -> None:
                 else:
                     u2 = u
                 changed.append(u2)
-            try:
+            def step(square=square, changed=changed, halves=halves) -> tuple:
                 ib = inject(halves[0].xyz, halves[0].fields, reefs=square)
                 ia = inject(halves[1].xyz, halves[1].fields, reefs=changed)
                 a_xyz = ia.xyz + shift
@@ -304,16 +296,13 @@ def _real(placements: int, ring: int = 6) -> None:
                                    design_scale_tolerance=0.35)
                 ra = extract_reefs(PointCloud(a_xyz, dict(halves[1].fields)), design=DESIGNS,
                                    design_scale_tolerance=0.35)
-                res = compare_surveys(rb, ra, ib.xyz, a_xyz, before_fields=halves[0].fields,
-                                      after_fields=halves[1].fields)
-            except MBInspectError as exc:
-                tally["stopped"] += 1
-                tally["why: " + re.sub(r"\([0-9., ]+\)", "(…)", str(exc))[:60]] += 1
+                return ib, compare_surveys(rb, ra, ib.xyz, a_xyz, before_fields=halves[0].fields,
+                                           after_fields=halves[1].fields)
+
+            if (done := compared(tally, step)) is None:
                 continue
+            ib, res = done
             g = res.registration
-            if not math.isfinite(g.sigma_dz):
-                tally["registration: " + g.note[:50]] += 1
-                continue
             regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dz,
                          g.sigma_dy, g.ties))
             truth_b = ib.truth["reefs"]
@@ -356,7 +345,7 @@ def _real(placements: int, ring: int = 6) -> None:
                      _height_cell(heights),
                      f"{np.median(r[:, 6]):.0f} of {tally['units'] / max(len(r), 1):.0f}" if len(r) else "-",
                      "; ".join(f"{k} ×{v}" for k, v in tally.items()
-                               if k.startswith(("why", "registration", "not found")))])
+                               if k.startswith(("stopped", "not registered", "not found")))])
     print(table(["file (pings split even/odd)", "placements run", "moved 0.8 m found", "settled 0.25 m",
                  "overturned", "unchanged called changed", "plan reg err RMS mm", "dz err RMS mm",
                  "dx, dy within 2σ", "median σ dx mm", "median σ dz mm", "displacement err RMS mm",

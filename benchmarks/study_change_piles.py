@@ -131,22 +131,15 @@ def _real(placements: int, only: str = "") -> None:
     the injected circles), each within its LoD95, and the unchanged piles called changed."""
     from dataclasses import replace
 
-    from mbinspect.errors import MBInspectError
     from mbinspect.inject import inject
     from mbinspect.io import PointCloud
     from mbinspect.scour import pit_scour
-    from study_inject import RADIUS, _files, _jacket, site
+    from study_inject import RADIUS, _jacket, compared, paired_halves
 
     shift = np.asarray(REAL_SHIFT)
     t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
     rows = []
-    for name, cloud, layout in _files(only):
-        if layout != "square" or "ping" not in cloud.fields:
-            continue
-        cx, cy, side = site(cloud)
-        even = (np.asarray(cloud.fields["ping"]) % 2) == 0
-        halves = [PointCloud(cloud.xyz[m], {k: np.asarray(v)[m] for k, v in cloud.fields.items()},
-                             crs=cloud.crs) for m in (even, ~even)]
+    for name, cloud, (cx, cy, side), halves in paired_halves(only):
         tally: Counter[str] = Counter()
         by: Counter[str] = Counter()
         regs, errs = [], {"settlement": [], "scour_depth": [], "scour (unchanged)": []}
@@ -154,7 +147,7 @@ def _real(placements: int, only: str = "") -> None:
             piles = _jacket(cx, cy, side, np.random.default_rng(k))
             pit = (piles[1].x, piles[1].y, *REAL_PIT)
             design = Design(positions={p.id: (p.x, p.y) for p in piles}, groups={p.id: 1 for p in piles})
-            try:
+            def step(piles=piles, pit=pit, design=design, halves=halves) -> tuple:
                 ib = inject(halves[0].xyz, halves[0].fields, piles=piles)
                 # the same tops in both epochs (a height would stand on each half's own seabed)
                 top = {p["id"]: p["z"] for p in ib.truth["piles"]}
@@ -168,15 +161,13 @@ def _real(placements: int, only: str = "") -> None:
                                   design=Design(positions={i: (x + shift[0], y + shift[1])
                                                            for i, (x, y) in design.positions.items()},
                                                 groups=design.groups))
-                res = compare_surveys(pb, pa, ib.xyz, a_xyz, before_fields=halves[0].fields,
-                                      after_fields=halves[1].fields)
-            except MBInspectError as exc:
-                tally["stopped: " + str(exc)[:50]] += 1
+                return ib, ia, compare_surveys(pb, pa, ib.xyz, a_xyz, before_fields=halves[0].fields,
+                                               after_fields=halves[1].fields)
+
+            if (done := compared(tally, step)) is None:
                 continue
+            ib, ia, res = done
             g = res.registration
-            if not math.isfinite(g.sigma_dz):
-                tally["not registered: " + g.note[:50]] += 1
-                continue
             regs.append((g.dx - shift[0], g.dy - shift[1], g.dz - shift[2], g.sigma_dx, g.sigma_dy,
                          g.sigma_dz))
             circles = {p.id: np.column_stack([p.x + RADIUS * np.sin(t), p.y + RADIUS * np.cos(t)])

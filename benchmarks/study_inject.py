@@ -33,8 +33,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -196,6 +199,38 @@ def _files(only: str = "") -> list[tuple[str, PointCloud, str]]:
             name, cloud = f"{name[:22]} (pings spread)", moved
         if layout is not None:
             out.append((name, cloud, layout))
+    return out
+
+
+def compared(tally: Any, step: Callable[[], tuple]) -> tuple | None:
+    """``step()``'s result (its last item a comparison), or None with the reason counted in
+    ``tally``: the library stopped with an error, or the comparison's registration found no
+    seabed to stand on."""
+    try:
+        out = step()
+    except MBInspectError as exc:
+        tally["stopped: " + re.sub(r"\([0-9., ]+\)", "(…)", str(exc))[:60]] += 1
+        return None
+    g = out[-1].registration
+    if not math.isfinite(g.sigma_dz):
+        tally["not registered: " + g.note[:50]] += 1
+        return None
+    return out
+
+
+def paired_halves(only: str = ""
+                  ) -> list[tuple[str, PointCloud, tuple[float, float, float], list[PointCloud]]]:
+    """Each real file that holds a square of objects and records its pings, as two surveys of
+    one place: its even and its odd pings (the real seabed, each half's noise its own), with
+    the file and where the square goes (:func:`site`)."""
+    out = []
+    for name, cloud, layout in _files(only):
+        if layout != "square" or "ping" not in cloud.fields:
+            continue
+        even = (np.asarray(cloud.fields["ping"]) % 2) == 0
+        halves = [PointCloud(cloud.xyz[m], {k: np.asarray(v)[m] for k, v in cloud.fields.items()},
+                             crs=cloud.crs) for m in (even, ~even)]
+        out.append((name, cloud, site(cloud), halves))
     return out
 
 
