@@ -150,10 +150,11 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     if "extra_detection" in fields:
         ok = ok & ~np.asarray(fields["extra_detection"], bool)
     scene = Scene(Seabed(z0=float(np.median(pts[:, 2]))), piles=tuple(scene_piles), reefs=tuple(scene_reefs))
-    dug = local
-    if pits:
+    start, dug = pts, local
+    if pits:  # the soundings a pit moved, and only they, leave their recorded place
         dug = dig_pits(local, o, ok, [(x - origin[0], y - origin[1], d, r) for x, y, d, r in pits])
-    out, labels, ident = _moved(pts, dug, origin, ping, angle, o, axes, ok, scene, beam)
+        start = np.where(np.any(dug != local, axis=1)[:, None], dug + [origin[0], origin[1], 0.0], pts)
+    out, labels, ident = _moved(pts, start, dug, origin, ping, angle, o, axes, ok, scene, beam)
     counts = {"soundings": int(len(pts)), "on_piles": int((labels == LABELS["pile"]).sum()),
               "on_reefs": int((labels == LABELS["reef"]).sum()),
               "per_pile": {str(p["id"]): int(((labels == LABELS["pile"]) & (ident == p["id"])).sum())
@@ -172,10 +173,12 @@ def inject(xyz: np.ndarray, fields: dict[str, np.ndarray], *, piles: Sequence[In
     return Injection(out, labels, ident, truth)
 
 
-def _moved(pts: np.ndarray, local: np.ndarray, origin: np.ndarray, ping: np.ndarray, angle: np.ndarray,
-           o: np.ndarray, axes: np.ndarray, ok: np.ndarray, scene: Scene, beam: Beam | None
+def _moved(pts: np.ndarray, start: np.ndarray, local: np.ndarray, origin: np.ndarray, ping: np.ndarray,
+           angle: np.ndarray, o: np.ndarray, axes: np.ndarray, ok: np.ndarray, scene: Scene, beam: Beam | None
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The soundings moved by the objects, with what each now shows (label, id).
+    """The soundings moved by the objects, with what each now shows (label, id): ``pts`` as
+    recorded (their residuals), ``start`` where they stand before the objects (a pit dug) and
+    ``local`` the same in the local frame.
 
     A thin beam: a sounding whose ray meets an object first moves to the hit, then along its
     beam by its own seabed residual. A beam with a width: every beam whose cone may meet an
@@ -186,7 +189,7 @@ def _moved(pts: np.ndarray, local: np.ndarray, origin: np.ndarray, ping: np.ndar
     """
     labels = np.zeros(len(pts), np.int8)
     ident = np.zeros(len(pts), np.int32)
-    out = local + [origin[0], origin[1], 0.0]
+    out = start.copy()
     rows = np.flatnonzero(ok)
     if not len(rows):
         return out, labels, ident
