@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "ring_radii", "grown", "pit_scour"]
+__all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "ring_radii", "grown", "pit_lowering",
+           "pit_scour"]
 
 #: The rings' width (m).
 RING = 0.5
@@ -165,6 +166,23 @@ def grown(poly: np.ndarray, by: float = FOOT_MARGIN) -> np.ndarray:
     return c + (poly - c) * ((r + by) / np.maximum(r, 1e-9))[:, None]
 
 
+def pit_lowering(pits: Sequence[tuple[float, float, float, float]], x: np.ndarray, y: np.ndarray
+                 ) -> np.ndarray:
+    """How far the pits ``(x, y, depth, radius)`` lower the seabed at ``x, y`` (m, down): each
+    a cosine bell ``depth`` m deep at its centre and ``radius`` m wide, the simulator's pits.
+
+    Examples
+    --------
+    >>> pit_lowering([(0.0, 0.0, 0.6, 4.0)], np.array([0.0, 2.0, 5.0]), np.zeros(3)).tolist()
+    [0.6, 0.3, 0.0]
+    """
+    low = np.zeros(np.broadcast(x, y).shape)
+    for px, py, depth, radius in pits:
+        r = np.hypot(x - px, y - py)
+        low += np.where(r < radius, depth * (1 + np.cos(np.pi * r / radius)) / 2, 0.0)
+    return low
+
+
 def pit_scour(pits: Sequence[tuple[float, float, float, float]], outline: np.ndarray,
               centre: tuple[float, float], *, reach: float = REACH, cell: float = 0.1,
               others: Sequence[np.ndarray] = ()) -> dict[str, float]:
@@ -198,10 +216,7 @@ def pit_scour(pits: Sequence[tuple[float, float, float, float]], outline: np.nda
     gx, gy = np.meshgrid(np.concatenate([-r[::-1], r]), np.concatenate([-r[::-1], r]))
     dist = np.hypot(gx, gy).ravel()
     pts = np.column_stack([gx.ravel() + centre[0], gy.ravel() + centre[1]])
-    low = np.zeros(len(pts))
-    for px, py, depth, radius in near:
-        rp = np.hypot(pts[:, 0] - px, pts[:, 1] - py)
-        low += np.where(rp < radius, depth * (1 + np.cos(np.pi * rp / radius)) / 2, 0.0)
+    low = pit_lowering(near, pts[:, 0], pts[:, 1])
     outside = ~points_in_polygon(pts, grown(np.asarray(outline))) & (dist <= reach + 2.0)
     for poly in others:  # the map leaves every object out, not only this one
         poly = np.asarray(poly)

@@ -264,25 +264,23 @@ def _ring_radii(diff: Grid, centre: tuple[float, float], outlines: list[np.ndarr
     ny, nx = diff.z.shape
     mapped = np.isfinite(diff.z)
 
-    def read(pts: np.ndarray) -> np.ndarray:
-        i = np.floor((pts[:, 0] - diff.x0) / diff.cell).astype(np.int64)
-        j = np.floor((pts[:, 1] - diff.y0) / diff.cell).astype(np.int64)
-        ok = np.zeros(len(pts), bool)
-        for di in (-1, 0, 1):
-            for dj in (-1, 0, 1):
-                ii, jj = i + di, j + dj
-                there = (ii >= 0) & (jj >= 0) & (ii < nx) & (jj < ny)
-                there[there] = mapped[jj[there], ii[there]]
-                ok |= there
-        for poly in grown_polys:
-            ok[ok] = ~points_in_polygon(pts[ok], poly)
-        return ok
-
     def outside(pts: np.ndarray) -> np.ndarray:
         ok = np.ones(len(pts), bool)
         for poly in grown_polys:
             ok[ok] = ~points_in_polygon(pts[ok], poly)
         return ok
+
+    def read(pts: np.ndarray) -> np.ndarray:
+        i = np.floor((pts[:, 0] - diff.x0) / diff.cell).astype(np.int64)
+        j = np.floor((pts[:, 1] - diff.y0) / diff.cell).astype(np.int64)
+        near = np.zeros(len(pts), bool)
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                ii, jj = i + di, j + dj
+                there = (ii >= 0) & (jj >= 0) & (ii < nx) & (jj < ny)
+                there[there] = mapped[jj[there], ii[there]]
+                near |= there
+        return near & outside(pts)
 
     radii, n_read = ring_radii(centre, read, reach, step=diff.cell / 5)
     _, n_all = ring_radii(centre, outside, reach, step=diff.cell / 5)

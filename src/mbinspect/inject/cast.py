@@ -30,6 +30,7 @@ from ..errors import InputError
 from ..noise import seabed_residuals
 from ..pings import estimate_pings, ping_geometry
 from ..reef_designs import BUILTIN_DESIGNS
+from ..scour import pit_lowering
 from ..simulate import LABELS, Pile, Reef, Scene, Seabed, hit_objects, reef_boxes, reef_truth, truth_spacings
 from ..simulate.beam import cast_cones
 from ..simulate.raycast import rays_near, targets
@@ -248,11 +249,7 @@ def dig_pits(local: np.ndarray, o: np.ndarray, ok: np.ndarray,
         return out
 
     def lowering(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        low = np.zeros(np.shape(x))
-        for px, py, depth, radius in pits:
-            r = np.hypot(x - px, y - py)
-            low += np.where(r < radius, depth * (1 + np.cos(np.pi * np.minimum(r / radius, 1.0))) / 2, 0.0)
-        return low
+        return pit_lowering(pits, x, y)
 
     rows = np.flatnonzero(ok)
     rows = rows[lowering(out[rows, 0], out[rows, 1]) > 0]
