@@ -6,6 +6,7 @@ and an ASCII one; a site register of piles refuses reefs."""
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import numpy as np
@@ -123,3 +124,26 @@ def test_the_cli_compares_piles_from_a_tiled_laz_result_and_an_ascii_one(jacket,
     assert main(["change", str(root / "pb"), str(root / "pa"), "--kind", "reefs", "--out",
                  str(root / "x")]) == 2
     assert "holds piles; expected reefs (--kind)" in capsys.readouterr().err
+
+
+def test_a_top_read_from_one_line_has_its_pings_for_its_settlement_bound():
+    # one line alone: no line offsets to fit, so no top_z_sigma; the line's mean is known
+    # from its pings (2 mm here), where the top face's own scatter over 90 soundings would
+    # claim a twentieth of it (a 1 mm LoD95 that 1-2 mm errors passed on the real XTF)
+    from dataclasses import replace
+
+    from mbinspect.change.measure import MapNoise
+    from mbinspect.change.options import ChangeOptions
+    from mbinspect.change.piles import pile_change
+    from mbinspect.change.register import IDENTITY
+    from mbinspect.piles.results import PileFit
+
+    top = PileFit(1, 0.0, 0.0, -5.0, 0.5, 10.0, 90.0, "x", 90, 200, 360.0, 0.003, 0.005)
+    line = ({"line": 1, "offset": 0.0, "n": 60, "sigma": 0.002},)
+    b = replace(top, top_z=-5.0, top_lines=line)
+    a = replace(top, top_z=-5.001, top_lines=line)
+    reg = replace(IDENTITY, sigma_dz=0.0005)
+    v, _, _ = pile_change(b, a, (0.0, 0.0), reg, ChangeOptions(), diff=None, noise=MapNoise(0.01),
+                          heights=(10.0, 10.0))
+    assert v["settlement"] == pytest.approx(0.001)
+    assert v["settlement_lod95"] == pytest.approx(1.96 * math.sqrt(2 * 0.002**2 + 0.0005**2), rel=1e-3)

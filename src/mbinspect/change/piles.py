@@ -101,13 +101,17 @@ def pile_change(b: PileFit, a: PileFit, a_xy: tuple[float, float], reg: Registra
 
 def _level(p: PileFit, notes: list[str]) -> tuple[float, float]:
     """The top's level and its 1-sigma relative to its own survey: the fitted top level
-    where the lines' offsets gave it one, else the least depth's relative TVU, else the
-    top face's own noise (soundings without lines or pings: said in a note)."""
+    where the lines' offsets gave it one; else, read by one line alone, that line's mean's
+    own 1-sigma from its pings (its offset is then the survey's, which the vertical
+    registration takes); else the least depth's relative TVU, else the top face's own noise
+    (soundings without lines or pings: said in a note)."""
     z = p.top_z if p.top_z is not None else p.z
     if p.top_z_lower_bound:
         return z, math.nan
     if p.top_z is not None and math.isfinite(p.top_z_sigma):
         return z, p.top_z_sigma
+    if len(p.top_lines) == 1 and float(p.top_lines[0].get("sigma", math.nan)) > 0:
+        return z, float(p.top_lines[0]["sigma"])
     rel = p.least.get("least_depth_tvu95_relative")
     if isinstance(rel, (int, float)) and math.isfinite(rel):
         return z, rel / Z95
