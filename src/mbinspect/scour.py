@@ -29,6 +29,10 @@ REACH = 6.0
 #: two surveys sailed otherwise see the unit's edge, its shadow and its blur differently.
 FOOT_MARGIN = 0.75
 
+#: A ring's cells whose distances from the centre spread less than this (m, RMS) give it no
+#: slope of their own (:func:`_at_radius`).
+FLAT_SPREAD = 0.02
+
 #: Least area (m²) a ring's cells must cover to count: an area, not a count of cells, so
 #: that a true pit read on a fine lattice and a difference map on a coarse one leave out the
 #: same slivers at the footprint's edge.
@@ -49,7 +53,7 @@ class Scour:
 
 
 def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, reach: float,
-                ring_radius: np.ndarray | None = None) -> Scour:
+                ring_radius: np.ndarray | None = None, ring_area: np.ndarray | None = None) -> Scour:
     """Scour from the cells round one object.
 
     Parameters
@@ -70,6 +74,12 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
         a lattice of coarse cells puts its centres in a ring unevenly (round a pile standing
         on a cell corner, 0.06 m farther out than the ring's area on average), and a pit's
         flank falls by centimetres over that.
+    ring_area : ndarray, optional
+        Each ring's area outside the footprint that the map reads (m², from a fine lattice, as
+        :func:`ring_radii` counts it). Given, a ring counts when that area reaches
+        :data:`MIN_RING_AREA`, not its cells' count times ``cell_area``: a sliver of ring
+        between the grown footprint and the next ring holds 2 to 8 coarse cells by where the
+        lattice falls, and a true pit read on a fine lattice always counts it.
 
     Returns
     -------
@@ -93,7 +103,12 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
     worth = n.astype(np.float64)
     if ring_radius is not None:
         mean, worth = _at_radius(k, d, low, mean, n, ring_radius)
-    mean = np.where(n * cell_area >= MIN_RING_AREA - 1e-9, mean, np.nan)
+    area = n * cell_area
+    if ring_area is not None:
+        area = np.zeros(len(n))
+        m = min(len(n), len(ring_area))
+        area[:m] = np.where(n[:m] > 0, np.nan_to_num(np.asarray(ring_area, np.float64)[:m]), 0.0)
+    mean = np.where(area >= MIN_RING_AREA - 1e-9, mean, np.nan)
     if not np.isfinite(mean).any():
         return Scour(0.0, 0.0, 0.0, 0, 0)
     deepest = int(np.nanargmax(mean))
@@ -109,13 +124,22 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
 def _at_radius(k: np.ndarray, d: np.ndarray, low: np.ndarray, mean: np.ndarray, n: np.ndarray,
                ring_radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each ring's mean carried along its cells' own slope (lowering against distance) to
-    the ring's mean radius, and what it is worth in cells (the slope's own error counted)."""
+    the ring's mean radius, and what it is worth in cells (the slope's own error counted).
+    A ring whose cells stand at one distance (a sliver round a pile on a lattice's axis of
+    symmetry) takes its slope from its cells and the next ring's together."""
     size = len(n)
     with np.errstate(invalid="ignore", divide="ignore"):
         centre = np.bincount(k, weights=d, minlength=size) / n
         off = d - centre[k]
         sxx = np.bincount(k, weights=off * off, minlength=size)
         slope = np.bincount(k, weights=off * (low - mean[k]), minlength=size) / sxx
+        flat = ~(sxx > n * FLAT_SPREAD**2)
+        if flat.any():
+            s_n, s_d, s_l, s_dd, s_dl = (np.convolve(np.bincount(k, weights=w, minlength=size), [1, 1])[1:]
+                                         for w in (None, d, low, d * d, d * low))
+            s_xx = s_dd - s_d**2 / s_n
+            slope = np.where(flat, (s_dl - s_d * s_l / s_n) / s_xx, slope)
+            sxx = np.where(flat, s_xx, sxx)
     target = np.full(size, np.nan)
     m = min(size, len(ring_radius))
     target[:m] = np.asarray(ring_radius, np.float64)[:m]

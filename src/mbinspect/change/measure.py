@@ -234,8 +234,8 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     level = float(np.median(diffs[ref_cells]))
     area, sigma = diff.cell**2, noise.sigma
     share = max(area / max(noise.area, area), 1e-9)  # the independent share of a cell
-    radii = _ring_radii(diff, centre, outlines, reach) if at_radius else None
-    s = scour_rings(d, -(diffs - level), area, reach=reach, ring_radius=radii)
+    radii, areas = _ring_radii(diff, centre, outlines, reach) if at_radius else (None, None)
+    s = scour_rings(d, -(diffs - level), area, reach=reach, ring_radius=radii, ring_area=areas)
     if s.cells == 0:
         return nan
     ref_var = sigma**2 / max(ref_cells.sum() * share, 1.0)
@@ -254,12 +254,13 @@ ALL_ROUND = 0.9
 
 
 def _ring_radii(diff: Grid, centre: tuple[float, float], outlines: list[np.ndarray], reach: float
-                ) -> np.ndarray:
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Each ring's mean radius over the area the map reads in it: outside the grown outlines,
     within a cell of a mapped cell (not the sliver between the object's outline and the first
     cell centres beyond it); NaN for a ring the map does not read all round (nine tenths of
     it): a neighbour's footprint, the swath's edge or a hole in the map leaves the ring's
-    lowering no longer a matter of the distance alone, and it is read as its cells' mean."""
+    lowering no longer a matter of the distance alone, and it is read as its cells' mean.
+    And each ring's area read (m²), on the same fine lattice."""
     grown_polys = [grown(poly) for poly in outlines if len(poly) >= 3]
     ny, nx = diff.z.shape
     mapped = np.isfinite(diff.z)
@@ -282,9 +283,10 @@ def _ring_radii(diff: Grid, centre: tuple[float, float], outlines: list[np.ndarr
                 near |= there
         return near & outside(pts)
 
-    radii, n_read = ring_radii(centre, read, reach, step=diff.cell / 5)
-    _, n_all = ring_radii(centre, outside, reach, step=diff.cell / 5)
-    return np.where(n_read >= ALL_ROUND * np.maximum(n_all, 1), radii, np.nan)
+    step = diff.cell / 5
+    radii, n_read = ring_radii(centre, read, reach, step=step)
+    _, n_all = ring_radii(centre, outside, reach, step=step)
+    return np.where(n_read >= ALL_ROUND * np.maximum(n_all, 1), radii, np.nan), n_read * step**2
 
 
 def _window(g: Grid, centre: tuple[float, float], r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -23,7 +23,7 @@ from .options import ChangeOptions
 from .piles import exposed_height, pile_change, pile_footprint, pile_outline
 from .register import IDENTITY, Registration, register
 from .results import ChangeResult, ObjectChange
-from .tie import tie_to_objects
+from .tie import PILE_TIES, tie_to_objects
 from .tops import Levels, reef_tops
 
 __all__ = ["compare_surveys"]
@@ -166,8 +166,14 @@ def _tied(reg: Registration, before: Result, after: Result, opt: ChangeOptions) 
     (:func:`~mbinspect.change.tie.tie_to_objects`)."""
     bxy, axy = _positions(before), _positions(after)
     carried = np.column_stack(reg.to_before(axy[:, 0], axy[:, 1])).reshape(-1, 2)
-    return tie_to_objects(reg, bxy, carried, match_objects(bxy, carried, max_move=opt.max_move),
-                          noise=math.sqrt(2) * opt.position_sigma)
+    pairs = match_objects(bxy, carried, max_move=opt.max_move)
+    noise = math.sqrt(2) * opt.position_sigma
+    if not (isinstance(before, PileResult) and isinstance(after, PileResult)):
+        return tie_to_objects(reg, bxy, carried, pairs, noise=noise)
+    # a jacket's top centres: three of four tie it, their moves' spread no less than their 1-sigma
+    sig = [p.sigma_xy for p in (*before.piles, *after.piles) if math.isfinite(p.sigma_xy)]
+    floor = math.sqrt(2) * float(np.median(sig)) if sig else opt.position_sigma
+    return tie_to_objects(reg, bxy, carried, pairs, noise=noise, least=PILE_TIES, floor=min(floor, noise))
 
 
 def _unlevelled(before: Mapping[str, Any] | None, after: Mapping[str, Any] | None, level: bool) -> list[str]:

@@ -25,10 +25,14 @@ import numpy as np
 
 from .register import IDENTITY, Registration
 
-__all__ = ["tie_to_objects", "MIN_TIES", "AGREE"]
+__all__ = ["tie_to_objects", "MIN_TIES", "PILE_TIES", "AGREE"]
 
 #: Fewest unmoved objects that refine a registration.
 MIN_TIES = 5
+
+#: Fewest unmoved piles that refine it: three of a jacket's four, whose top centres agree to
+#: millimetres where reefs' centres scatter by centimetres.
+PILE_TIES = 3
 
 #: The objects' shift is used within this many combined sigmas of the seabed's.
 AGREE = 3.0
@@ -48,22 +52,23 @@ FLOOR = 0.005
 SHARED = 0.01
 
 
-def _unmoved(moves: np.ndarray, noise: float) -> np.ndarray:
+def _unmoved(moves: np.ndarray, noise: float, least: int, floor: float) -> np.ndarray:
     """Which moves (n, 2) agree: within three robust spreads of their median in both axes,
     the spread never over ``noise`` (where most units moved, theirs would take them all)."""
     keep = np.ones(len(moves), bool)
     for _ in range(ROUNDS):
         centre = np.median(moves[keep], axis=0)
-        spread = np.clip(1.4826 * np.median(np.abs(moves[keep] - centre), axis=0), FLOOR, noise)
+        spread = np.clip(1.4826 * np.median(np.abs(moves[keep] - centre), axis=0), floor, noise)
         now = np.all(np.abs(moves - centre) <= 3.0 * spread, axis=1)
-        if now.sum() < MIN_TIES or (now == keep).all():
+        if now.sum() < least or (now == keep).all():
             return now
         keep = now
     return keep
 
 
 def tie_to_objects(reg: Registration, before_xy: np.ndarray, after_xy: np.ndarray,
-                   pairs: list[tuple[int, int]], *, noise: float = 0.07) -> Registration:
+                   pairs: list[tuple[int, int]], *, noise: float = 0.07, least: int = MIN_TIES,
+                   floor: float = FLOOR) -> Registration:
     """``reg`` with its plan shift refined on the matched objects that did not move.
 
     Parameters
@@ -79,6 +84,11 @@ def tie_to_objects(reg: Registration, before_xy: np.ndarray, after_xy: np.ndarra
     noise : float
         The most an unmoved object's apparent move may scatter (m, 1-sigma per axis: both
         surveys' centres); the robust spread of the moves is capped at it.
+    least : int
+        Fewest unmoved objects that refine the shift (and a majority of the matched).
+    floor : float
+        The least robust spread of the moves (m): a few objects' median deviation can fall
+        far below their centres' noise, which ``floor`` then stands for.
 
     Returns
     -------
@@ -103,13 +113,13 @@ def tie_to_objects(reg: Registration, before_xy: np.ndarray, after_xy: np.ndarra
         return reg
     i, j = np.array(pairs).T
     moves = np.asarray(after_xy, np.float64)[j] - np.asarray(before_xy, np.float64)[i]
-    keep = _unmoved(moves, noise)
+    keep = _unmoved(moves, noise, least, max(floor, FLOOR))
     n = int(keep.sum())
-    if n < MIN_TIES or 2 * n <= len(pairs):
+    if n < least or 2 * n <= len(pairs):
         return dataclasses.replace(reg, note=_joined(reg.note, f"{n} of {len(pairs)} matched objects kept "
                                                      "together: too few to refine the plan shift on"))
     shift = moves[keep].mean(axis=0)
-    sigma = np.hypot(np.maximum(moves[keep].std(axis=0, ddof=1), FLOOR) / math.sqrt(n), SHARED)
+    sigma = np.hypot(np.maximum(moves[keep].std(axis=0, ddof=1), max(floor, FLOOR)) / math.sqrt(n), SHARED)
     seabed = np.array([reg.sigma_dx, reg.sigma_dy])
     if np.any(np.abs(shift) > AGREE * np.hypot(seabed, sigma)):
         return dataclasses.replace(reg, note=_joined(
