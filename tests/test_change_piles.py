@@ -70,24 +70,27 @@ def test_each_pile_change_is_found_within_its_level_of_detection(jacket):
 
 
 @pytest.mark.parametrize("radius", [0.75, 0.6])
-@pytest.mark.parametrize("centre", [(10.0, 10.0), (10.25, 10.25), (10.1, 10.37), (10.25, 10.0)])
-def test_a_pit_read_on_coarse_cells_is_the_true_pit_wherever_the_lattice_falls(centre, radius):
+def test_a_pit_read_on_coarse_cells_is_the_true_pit_wherever_the_lattice_falls(radius):
     # a pile standing on a cell corner puts the first ring's cell centres 0.06 m farther out
     # than the ring's area, on a cell centre nearer in: a 0.6 m pit's flank read 12 mm shallow
-    # or 25 mm deep, where the ring's mean is now read at the ring's own radius; round a
-    # 0.6 m pile the first ring is a sliver (1.35-1.5 m, 1.3 m²) that holds 3 to 8 cells by
-    # where the lattice falls: counted by its area, not dropped below 4 cells (88 mm shallow)
-    cx, cy = centre
+    # or 25 mm deep, where the ring's mean is now read at the ring's own radius. Round a
+    # 0.6 m pile the first ring is a sliver (1.35-1.5 m, 1.6 m²) that holds 2 to 8 cells by
+    # where the lattice falls, often all at one distance: counted by its area and carried
+    # along its slope with the next ring's (before: 22 mm RMS, 77 mm shallow at worst)
     x = (np.arange(40) + 0.5) * 0.5
     gx, gy = np.meshgrid(x, x)
-    r = np.hypot(gx - cx, gy - cy)
-    low = np.where(r < 4.0, 0.6 * (1 + np.cos(np.pi * r / 4.0)) / 2, 0.0)
     t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
-    pile = np.column_stack([cx + radius * np.sin(t), cy + radius * np.cos(t)])
-    diff = Grid(0.0, 0.0, 0.5, -low, np.ones(low.shape, int))
-    got = scour_of(diff, MapNoise(0.005), centre, [pile], reach=6.0, at_radius=True)
-    true = pit_scour([(cx, cy, 0.6, 4.0)], pile, centre)
-    assert got["scour_depth"] == pytest.approx(true["scour_depth"], abs=0.002)
+    errors = []
+    for cx in 10.0 + np.arange(0.0, 0.5, 0.1):
+        for cy in 10.0 + np.arange(0.05, 0.5, 0.1):
+            r = np.hypot(gx - cx, gy - cy)
+            low = np.where(r < 4.0, 0.6 * (1 + np.cos(np.pi * r / 4.0)) / 2, 0.0)
+            pile = np.column_stack([cx + radius * np.sin(t), cy + radius * np.cos(t)])
+            diff = Grid(0.0, 0.0, 0.5, -low, np.ones(low.shape, int))
+            got = scour_of(diff, MapNoise(0.005), (cx, cy), [pile], reach=6.0, at_radius=True)
+            true = pit_scour([(cx, cy, 0.6, 4.0)], pile, (cx, cy))
+            errors.append(got["scour_depth"] - true["scour_depth"])
+    assert np.abs(errors).max() < 0.002, np.round(errors, 4)
 
 
 def test_a_pile_cannot_be_removed_or_moved_in_the_simulator(jacket):

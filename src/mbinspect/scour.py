@@ -134,17 +134,19 @@ def _at_radius(k: np.ndarray, d: np.ndarray, low: np.ndarray, mean: np.ndarray, 
         sxx = np.bincount(k, weights=off * off, minlength=size)
         slope = np.bincount(k, weights=off * (low - mean[k]), minlength=size) / sxx
         flat = ~(sxx > n * FLAT_SPREAD**2)
+        count = n
         if flat.any():
             s_n, s_d, s_l, s_dd, s_dl = (np.convolve(np.bincount(k, weights=w, minlength=size), [1, 1])[1:]
                                          for w in (None, d, low, d * d, d * low))
             s_xx = s_dd - s_d**2 / s_n
             slope = np.where(flat, (s_dl - s_d * s_l / s_n) / s_xx, slope)
             sxx = np.where(flat, s_xx, sxx)
+            count = np.where(flat, s_n, n)
     target = np.full(size, np.nan)
     m = min(size, len(ring_radius))
     target[:m] = np.asarray(ring_radius, np.float64)[:m]
     move = target - centre
-    ok = np.isfinite(move) & np.isfinite(slope) & (n >= 3) & (sxx > 0)
+    ok = np.isfinite(move) & np.isfinite(slope) & (count >= 3) & (sxx > 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         worth = np.where(ok, 1.0 / (1.0 / np.maximum(n, 1) + move**2 / sxx), n.astype(np.float64))
     return np.where(ok, mean + slope * move, mean), worth
