@@ -42,6 +42,8 @@ CONFIGS: dict[str, tuple[dict, tuple[float, float], dict]] = {
     "no-offset": ({}, (0.0, 0.0), {}),
     "classic": ({"sonar": "classic"}, (0.5, 0.3), {}),
     "seabed-only": ({}, (0.5, 0.3), {"tie_objects": False}),
+    # both surveys through 1° cones (issue 28), the reef chain told the beam
+    "beam-1-told": ({"beam_across_deg": 1.0}, (0.5, 0.3), {}),
 }
 
 #: What each kind of change must show to count as found.
@@ -62,8 +64,10 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     changes = random_changes(before.truth, seed=seed, share=0.3)
     after = resurvey(before.truth, changes, seed=seed + 500, shift=shift)
     designs = ",".join(sorted({r["kind"] for r in before.truth["reefs"]}))
-    rb = extract_reefs(before.cloud, design=designs, seed=seed)
-    ra = extract_reefs(after.cloud, design=designs, seed=seed)
+    width = kw.get("beam_across_deg")
+    told = {"beam_correction": True, "beam_width_deg": width} if width else {}
+    rb = extract_reefs(before.cloud, design=designs, seed=seed, **told)
+    ra = extract_reefs(after.cloud, design=designs, seed=seed, **told)
     res = compare_surveys(rb, ra, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
                           after_fields=after.cloud.fields, **change_kw)
     kinds = {c.id: _kind(c) for c in changes}

@@ -36,6 +36,8 @@ CONFIGS: dict[str, tuple[str, dict, int, tuple[float, float]]] = {
     "jacket": ("jacket", {}, 4, (0.3, 0.2)),
     "jacket-classic": ("jacket", {"sonar": "classic"}, 4, (0.3, 0.2)),
     "wharf": ("wharf", {}, 0, (0.3, 0.2)),
+    # both surveys through 1° cones (issue 28), the piles located told the beam
+    "jacket-beam-1": ("jacket", {"beam_across_deg": 1.0}, 4, (0.3, 0.2)),
 }
 
 #: What each kind of change must show to count as found.
@@ -56,12 +58,16 @@ def run_one(args: tuple[str, int]) -> list[dict]:
     changes = random_pile_changes(before.truth, seed=seed)
     after = resurvey(before.truth, changes, seed=seed + 700, shift=shift)
     piles = before.truth["piles"]
+    # the design's rakes as a design file gives them (the wharf's raked rows)
+    tilts = {r["id"]: (r["tilt_deg"], r["tilt_azimuth_deg"]) for r in before.truth.get("design", [])
+             if r.get("tilt_deg")}
     design = Design(positions={p["id"]: (p["x"], p["y"]) for p in piles},
-                    groups={p["id"]: p.get("group", 1) for p in piles})
+                    groups={p["id"]: p.get("group", 1) for p in piles}, tilts=tilts)
     n = count or len(piles)
     radius = float(piles[0]["radius"])
-    pb = locate_piles(before.cloud, radius=radius, count=n, design=design, seed=seed)
-    pa = locate_piles(after.cloud, radius=radius, count=n, design=design, seed=seed)
+    told = {"beam_width_deg": kw["beam_across_deg"]} if "beam_across_deg" in kw else {}
+    pb = locate_piles(before.cloud, radius=radius, count=n, design=design, seed=seed, **told)
+    pa = locate_piles(after.cloud, radius=radius, count=n, design=design, seed=seed, **told)
     res = compare_surveys(pb, pa, before.cloud.xyz, after.cloud.xyz, before_fields=before.cloud.fields,
                           after_fields=after.cloud.fields)
     true = {o["id"]: o for o in after.truth["change"]["objects"]}

@@ -197,6 +197,28 @@ def test_a_design_gives_raked_piles_by_rake_or_by_lean(tmp_path):
     assert read_design(p).tilts == {1: (9.5, 270.0)}
 
 
+
+def test_a_raked_design_searches_tilts_beyond_its_rake_in_one_piece_and_in_tiles():
+    # a wharf pile raked 14° that leans 1.6° more was "no pile" (15.6° past `max_tilt_deg` 15)
+    # and the change between two surveys called it removed: tilts now count beyond the rake
+    from mbinspect.piles.accept import rejection_reasons
+    from mbinspect.piles.design import searched_tilt
+    from mbinspect.piles.tiles import PILES
+
+    opts = PileOptions(radius=0.6)
+    raked = Design(positions={1: (0.0, 0.0), 2: (9.0, 0.0)}, tilts={1: (14.04, 135.0)})
+    pile = PileFit(1, 0.0, 0.0, -8.0, 0.6, 15.6, 135.0, "intersection", 300, 900, 180.0, 0.01, 0.002,
+                   radius_fitted=0.6)
+    assert rejection_reasons(pile, 5.5, opts) == ["leans 15.6 deg, more than `max_tilt_deg` 15"]
+    wide = searched_tilt(opts, raked)
+    assert wide.max_tilt_deg == pytest.approx(29.04) and rejection_reasons(pile, 5.5, wide) == []
+    assert rejection_reasons(replace(pile, tilt_deg=31.0), 5.5, wide)  # still bounded
+    plumb = Design(positions=raked.positions)
+    assert searched_tilt(opts, plumb) is opts and searched_tilt(opts, None) is opts
+    tiled, _ = PILES.tile_options(opts.replace(count=2), {"design": raked})
+    assert tiled.max_tilt_deg == pytest.approx(29.04) and tiled.count is None
+    assert PILES.tile_options(opts, {})[0].max_tilt_deg == 15.0
+
 def test_bad_parameters_are_named(jacket_small):
     for kw, pattern in (({"radius": -1}, "^radius: -1; expected a positive"),
                         ({"radius": 0.75, "method": "x"}, "^method: 'x'; expected one of intersection"),

@@ -75,8 +75,9 @@ class Pipeline(Protocol):
         """The plan cell (m) of the largest grid it builds (the survey's memory test)."""
         ...
 
-    def tile_options(self, options: Any) -> tuple[Any, list[str]]:
-        """The options each tile runs with, and why they differ from those given."""
+    def tile_options(self, options: Any, extra: Mapping[str, Any]) -> tuple[Any, list[str]]:
+        """The options each tile runs with (``extra`` as :meth:`run` takes it), and why they
+        differ from those given."""
         ...
 
     def run(self, cloud: PointCloud, options: Any, extra: Mapping[str, Any],

@@ -16,10 +16,11 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from ..errors import FileAccessError, InputError
 
-__all__ = ["Design", "read_design"]
+__all__ = ["Design", "read_design", "searched_tilt"]
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,11 @@ class Design:
     groups: dict[int, int] = field(default_factory=dict)
     tops: dict[int, float] = field(default_factory=dict)
     tilts: dict[int, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def rake_deg(self) -> float:
+        """The largest designed lean (degrees from vertical; 0 for a design of plumb piles)."""
+        return max((float(t) for t, _ in self.tilts.values()), default=0.0)
 
     def spacing(self, a: int, b: int) -> float | None:
         """The design distance between piles ``a`` and ``b`` (m), or None if not designed."""
@@ -203,3 +209,11 @@ def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header:
 
 
 
+
+
+def searched_tilt(options: Any, design: Design | None) -> Any:
+    """``options`` with ``max_tilt_deg`` counted beyond the design's largest rake: a pile
+    raked 14° that leans 2° more is a pile leaning anew, not something that is no pile (a
+    design of plumb piles, or none, leaves the options as they are)."""
+    rake = 0.0 if design is None else design.rake_deg
+    return options if rake <= 0 else options.replace(max_tilt_deg=options.max_tilt_deg + rake)

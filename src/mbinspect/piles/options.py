@@ -87,7 +87,8 @@ class PileOptions(Options):
     delta: float = option(0.01, unit="m", help="stop when every spacing changes by less than this",
                           check="positive")
     max_iterations: int = option(20, help="most iterations", check="count", metavar="N")
-    max_tilt_deg: float = option(15.0, unit="deg", help="largest tilt a cylinder hypothesis may have",
+    max_tilt_deg: float = option(15.0, unit="deg", help="largest tilt a cylinder hypothesis may have "
+                                 "(beyond the design's largest rake, when the design gives rakes)",
                                  check="angle", flag="max-tilt")
     min_top: int = option(20, help="flag a pile with fewer top points", check="whole", metavar="N")
     min_side: int = option(50, help="flag a pile with fewer side points", check="whole", metavar="N")

@@ -20,7 +20,7 @@ from ..version import __version__
 from .accept import rejected_record, rejection_reasons
 from .assess import PLAN_FLAG, assess_pile, plan_flag
 from .beam import beam_contrast, pile_models, through_beam, top_through_beam
-from .design import Design
+from .design import Design, searched_tilt
 from .elevate import elevated_points, pile_base, pile_thresholds
 from .iterate import iterate
 from .level import top_lines
@@ -82,6 +82,7 @@ def locate_piles(data: PointCloud | np.ndarray, options: PileOptions | None = No
     True
     """
     opts = PileOptions(**overrides) if options is None else options.replace(**overrides)
+    opts = searched_tilt(opts, design)
     m = measure_piles(data, opts, progress=progress)
     if not m.piles:
         raise DataError(no_pile_found(m.rejected))

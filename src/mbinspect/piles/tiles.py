@@ -12,6 +12,7 @@ import numpy as np
 from ..cloud import PointCloud
 from ..errors import DataError
 from ..pipeline import TilePart
+from .design import searched_tilt
 from .options import PileOptions
 from .results import PileFit, PileResult
 from .run import locate_piles, measure_piles, no_pile_found, relate_piles
@@ -39,8 +40,11 @@ class PilesPipeline:
     def grid_cell(self, options: PileOptions) -> float:
         return float(options.seabed_cell)
 
-    def tile_options(self, options: PileOptions) -> tuple[PileOptions, list[str]]:
-        """``count`` is checked after the merge, not in each tile."""
+    def tile_options(self, options: PileOptions, extra: Mapping[str, Any]) -> tuple[PileOptions, list[str]]:
+        """``count`` is checked after the merge, not in each tile; tilts are searched beyond
+        the design's rake (:func:`~mbinspect.piles.design.searched_tilt`), as a whole run
+        searches them."""
+        options = searched_tilt(options, extra.get("design"))
         return (options.replace(count=None) if options.count is not None else options), []
 
     def run(self, cloud: PointCloud, options: PileOptions, extra: Mapping[str, Any],

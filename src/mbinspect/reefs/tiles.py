@@ -47,7 +47,7 @@ class ReefsPipeline:
     def grid_cell(self, options: ReefOptions) -> float:
         return float(options.seabed_cell)
 
-    def tile_options(self, options: ReefOptions) -> tuple[ReefOptions, list[str]]:
+    def tile_options(self, options: ReefOptions, extra: Mapping[str, Any]) -> tuple[ReefOptions, list[str]]:
         """The seabed ``auto`` (one plane where it fits the whole cloud) becomes the local
         grid: a tile does not see the whole cloud."""
         if options.seabed != "auto":

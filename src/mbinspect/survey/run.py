@@ -169,7 +169,7 @@ def run_survey(pipeline: str | Pipeline, paths: Sequence[str | os.PathLike[str]]
                              fields=pipe.tile_fields(options), target=_target(files, ropts))
             plan, sizing = _plan(bins, buffer, block, survey, _worker_count(client, survey),
                                  pipe.grid_cell(options))
-            tile_opts, notes = pipe.tile_options(options)
+            tile_opts, notes = pipe.tile_options(options, extra or {})
             if not sizing.get("within_budget", True):
                 notes.append(f"tiled: the smallest tiles the buffer allows read {sizing['largest']:,} "
                              f"soundings, more than `tile_memory` holds")
