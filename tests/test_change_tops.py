@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from mbinspect.change.tops import ground_level, sounding_noise, top_level
+from mbinspect.change.tops import BAND_PLACE, ground_level, ground_sigma, sounding_noise, top_level
 from mbinspect.reefs.results import Reef
 
 SQUARE = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
@@ -72,7 +72,8 @@ def test_exposed_height_change_is_read_from_the_least_depths() -> None:
     assert out["height_change"] == pytest.approx(-0.01)
     assert abs(out["height_change"]) < out["height_change_lod95"]  # no detectable change
     # the tops' levels, where both were read, as the settlement reads them
-    read = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, "", math.nan), (-10.02, 0.01, "", math.nan)))
+    tops = ((-10.0, 0.01, "", math.nan, 0.0), (-10.02, 0.01, "", math.nan, 0.0))
+    read = _levels(before, after, IDENTITY, [], tops)
     assert read["height_change"] == pytest.approx(-0.02)
     assert read["settlement"] == pytest.approx(0.02)
     # without least depths or tops, the pipeline's heights are what is left
@@ -104,9 +105,17 @@ def test_the_exposed_height_stands_on_the_seabed_round_the_unit_in_a_scour_pit()
     # the change's exposed heights: the tops over each survey's seabed round the unit
     before = replace(_unit(), least={"least_depth": 10.0, "least_depth_tvu95_relative": 0.03})
     after = replace(before, z_seabed=-11.4)  # the pipeline's seabed, bent into the bowl
-    out = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, "", -11.0), (-10.0, 0.01, "", round_it)))
+    flat = (-10.0, 0.01, "", -11.0, 0.0)
+    out = _levels(before, after, IDENTITY, [], (flat, (-10.0, 0.01, "", round_it, 0.0)))
     assert out["height_change"] == pytest.approx(-11.0 - round_it)
+    # the pit's wall (0.11 m a metre) across the band: where the band stands moves the level
+    # it reads, by the slope over half the band's width, and the change's bound carries it
+    wall = ground_sigma(pts, _unit())
+    assert 0.8 * 0.114 * BAND_PLACE < wall < 1.2 * 0.114 * BAND_PLACE
+    assert ground_sigma(_top(rng, 0.0, n=20_000), _unit()) < 0.003  # a level seabed owes nothing
+    bound = _levels(before, after, IDENTITY, [], (flat, (-10.0, 0.01, "", round_it, wall)))
+    assert bound["height_change_lod95"] == pytest.approx(math.hypot(0.03, 0.03, 1.96 * wall), rel=0.01)
     # a band with too few soundings round the unit reads nothing, and the pipeline's seabed is used
     assert math.isnan(ground_level(pts[unit], _unit()))
-    lone = _levels(before, after, IDENTITY, [], ((-10.0, 0.01, "", -11.0), (-10.0, 0.01, "", math.nan)))
+    lone = _levels(before, after, IDENTITY, [], (flat, (-10.0, 0.01, "", math.nan, 0.0)))
     assert lone["height_change"] == pytest.approx(0.4)

@@ -31,8 +31,8 @@ from ..reefs.tilt import top_plane
 from ..scour import grown
 from .grid import _group_medians
 
-__all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops", "ground_level", "Levels",
-           "ROUND_BAND"]
+__all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops", "ground_level", "ground_sigma",
+           "Levels", "ROUND_BAND"]
 
 #: The vertical noise (m) below which no top's soundings are taken to agree (a plane's
 #: tolerance is three of it).
@@ -47,8 +47,9 @@ DEFAULT_NOISE = 0.02
 
 TopLevel = tuple[float, float, str]
 
-#: A unit's top level, its 1-sigma, why it was not read, and the seabed round it (m, up).
-Levels = tuple[float, float, str, float]
+#: A unit's top level, its 1-sigma, why it was not read, the seabed round it (m, up) and what
+#: that seabed owes to where its band stands (:func:`ground_sigma`, m).
+Levels = tuple[float, float, str, float, float]
 
 #: The band round a unit (m beyond its footprint's outline) whose soundings give the seabed
 #: its exposed height stands on: outside most of the wall's bloom, and the seabed the
@@ -184,6 +185,46 @@ def ground_level(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.
     return math.nan if coef is None else float(coef[0])
 
 
+#: How far (m) the band's middle may stand from where the seabed round a unit is meant (0.3 m
+#: beyond its true outline): half the band's width, over which an outline's bloom moves it.
+BAND_PLACE = 0.15
+
+
+def ground_sigma(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> float:
+    """What the seabed round a unit (:func:`ground_level`) owes to where its band stands
+    (m, 1-sigma): the seabed's slope away from the unit across the band's soundings (a scour
+    pit's wall: 0.4 m a metre in a pit 0.9 m deep and 3.6 m wide) times :data:`BAND_PLACE`.
+    Zero on a level seabed, or where the band's soundings span too little distance from the
+    unit to show a slope (under 0.2 m).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(2)
+    >>> xy = rng.uniform(-3, 3, (20_000, 2))
+    >>> r = np.hypot(*xy.T)
+    >>> z = np.where(np.abs(xy).max(axis=1) <= 1.0, -9.0, -11.5 + 0.3 * r)  # a pit's wall round it
+    >>> square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+    >>> reef = Reef(1, 0.0, 0.0, -11.0, -9.0, 2.0, 4.0, 2.0, 2.0, 0.0, 4.0, 4.0, 600, outline=square)
+    >>> round(ground_sigma(np.column_stack([xy, z]), reef), 3)
+    0.045
+    """
+    poly = np.asarray(reef.outline, np.float64).reshape(-1, 2)
+    if len(poly) < 3:
+        return 0.0
+    inner, outer = grown(poly, ROUND_BAND[0]), grown(poly, ROUND_BAND[1])
+    idx = _in_box(points, outer, index)
+    idx = idx[points_in_polygon(points[idx], outer) & ~points_in_polygon(points[idx], inner)]
+    if math.isfinite(reef.z_seabed):
+        idx = idx[points[idx, 2] <= reef.z_seabed + ROUND_ABOVE]
+    u, v, z = points[idx, 0] - reef.x, points[idx, 1] - reef.y, points[idx, 2]
+    r = np.hypot(u, v)
+    if len(idx) < 20 or np.ptp(r) < 0.2:
+        return 0.0
+    coef = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v, r - r.mean()]), z, 3)
+    return 0.0 if coef is None else abs(float(coef[3])) * BAND_PLACE
+
+
 def _in_box(points: np.ndarray, poly: np.ndarray, index: tuple[np.ndarray, np.ndarray] | None
             ) -> np.ndarray:
     """The rows of ``points`` in the plan box round ``poly`` (``index``: :func:`by_x` of them)."""
@@ -201,5 +242,5 @@ def reef_tops(reefs: tuple[Reef, ...] | list[Reef], points: np.ndarray, fields: 
         return []
     ping = None if not fields or "ping" not in fields else np.asarray(fields["ping"])
     noise, index = sounding_noise(points), by_x(points)
-    return [(*top_level(points, r, ping=ping, noise=noise, index=index), ground_level(points, r, index=index))
-            for r in reefs]
+    return [(*top_level(points, r, ping=ping, noise=noise, index=index), ground_level(points, r, index=index),
+             ground_sigma(points, r, index=index)) for r in reefs]
