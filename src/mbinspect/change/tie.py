@@ -113,13 +113,14 @@ def tie_to_objects(reg: Registration, before_xy: np.ndarray, after_xy: np.ndarra
         return reg
     i, j = np.array(pairs).T
     moves = np.asarray(after_xy, np.float64)[j] - np.asarray(before_xy, np.float64)[i]
-    keep = _unmoved(moves, noise, least, max(floor, FLOOR))
+    floor = max(floor, FLOOR)
+    keep = _unmoved(moves, noise, least, floor)
     n = int(keep.sum())
     if n < least or 2 * n <= len(pairs):
         return dataclasses.replace(reg, note=_joined(reg.note, f"{n} of {len(pairs)} matched objects kept "
                                                      "together: too few to refine the plan shift on"))
     shift = moves[keep].mean(axis=0)
-    sigma = np.hypot(np.maximum(moves[keep].std(axis=0, ddof=1), max(floor, FLOOR)) / math.sqrt(n), SHARED)
+    sigma = np.hypot(np.maximum(moves[keep].std(axis=0, ddof=1), floor) / math.sqrt(n), SHARED)
     seabed = np.array([reg.sigma_dx, reg.sigma_dy])
     if np.any(np.abs(shift) > AGREE * np.hypot(seabed, sigma)):
         return dataclasses.replace(reg, note=_joined(

@@ -32,7 +32,7 @@ from ..scour import grown
 from .grid import _group_medians
 
 __all__ = ["top_level", "TopLevel", "by_x", "sounding_noise", "reef_tops", "ground_level", "ground_sigma",
-           "Levels", "ROUND_BAND"]
+           "ground_round", "Levels", "ROUND_BAND"]
 
 #: The vertical noise (m) below which no top's soundings are taken to agree (a plane's
 #: tolerance is three of it).
@@ -166,23 +166,7 @@ def ground_level(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.
     >>> round(ground_level(np.column_stack([xy, z]), reef), 3)
     -11.0
     """
-    poly = np.asarray(reef.outline, np.float64).reshape(-1, 2)
-    if len(poly) < 3:
-        return math.nan
-    inner, outer = grown(poly, ROUND_BAND[0]), grown(poly, ROUND_BAND[1])
-    idx = _in_box(points, outer, index)
-    idx = idx[points_in_polygon(points[idx], outer) & ~points_in_polygon(points[idx], inner)]
-    # the seabed, not the unit: a radial band cuts a concave footprint's arms, a leaning or
-    # overturned unit reaches past its outline, and a neighbour may stand in the band
-    if math.isfinite(reef.z_seabed):
-        idx = idx[points[idx, 2] <= reef.z_seabed + ROUND_ABOVE]
-    if len(idx) < 20:
-        return math.nan
-    u, v, z = points[idx, 0] - reef.x, points[idx, 1] - reef.y, points[idx, 2]
-    if not all_round(u, v):
-        return math.nan
-    coef = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v]), z, 3)  # a neighbour's wall or a stray: off
-    return math.nan if coef is None else float(coef[0])
+    return ground_round(points, reef, index=index)[0]
 
 
 #: How far (m) the band's middle may stand from where the seabed round a unit is meant (0.3 m
@@ -195,8 +179,8 @@ def ground_sigma(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.
     """What the seabed round a unit (:func:`ground_level`) owes to where its band stands
     (m, 1-sigma): the seabed's slope away from the unit across the band's soundings (a scour
     pit's wall: 0.4 m a metre in a pit 0.9 m deep and 3.6 m wide) times :data:`BAND_PLACE`.
-    Zero on a level seabed, or where the band's soundings span too little distance from the
-    unit to show a slope (under 0.2 m).
+    Zero on a level seabed, where the band's soundings span too little distance from the
+    unit to show a slope (under 0.2 m), or where no seabed round the unit is read.
 
     Examples
     --------
@@ -209,20 +193,34 @@ def ground_sigma(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.
     >>> round(ground_sigma(np.column_stack([xy, z]), reef), 3)
     0.045
     """
+    return ground_round(points, reef, index=index)[1]
+
+
+def ground_round(points: np.ndarray, reef: Reef, *, index: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[float, float]:
+    """:func:`ground_level` and :func:`ground_sigma` from one reading of the band's soundings."""
     poly = np.asarray(reef.outline, np.float64).reshape(-1, 2)
     if len(poly) < 3:
-        return 0.0
+        return math.nan, 0.0
     inner, outer = grown(poly, ROUND_BAND[0]), grown(poly, ROUND_BAND[1])
     idx = _in_box(points, outer, index)
     idx = idx[points_in_polygon(points[idx], outer) & ~points_in_polygon(points[idx], inner)]
+    # the seabed, not the unit: a radial band cuts a concave footprint's arms, a leaning or
+    # overturned unit reaches past its outline, and a neighbour may stand in the band
     if math.isfinite(reef.z_seabed):
         idx = idx[points[idx, 2] <= reef.z_seabed + ROUND_ABOVE]
+    if len(idx) < 20:
+        return math.nan, 0.0
     u, v, z = points[idx, 0] - reef.x, points[idx, 1] - reef.y, points[idx, 2]
+    if not all_round(u, v):
+        return math.nan, 0.0
+    one = np.ones_like(u)
+    coef = trimmed_lstsq(np.column_stack([one, u, v]), z, 3)  # a neighbour's wall or a stray: off
+    if coef is None:
+        return math.nan, 0.0
     r = np.hypot(u, v)
-    if len(idx) < 20 or np.ptp(r) < 0.2:
-        return 0.0
-    coef = trimmed_lstsq(np.column_stack([np.ones_like(u), u, v, r - r.mean()]), z, 3)
-    return 0.0 if coef is None else abs(float(coef[3])) * BAND_PLACE
+    wall = None if np.ptp(r) < 0.2 else trimmed_lstsq(np.column_stack([one, u, v, r - r.mean()]), z, 3)
+    return float(coef[0]), 0.0 if wall is None else abs(float(wall[3])) * BAND_PLACE
 
 
 def _in_box(points: np.ndarray, poly: np.ndarray, index: tuple[np.ndarray, np.ndarray] | None
@@ -242,5 +240,5 @@ def reef_tops(reefs: tuple[Reef, ...] | list[Reef], points: np.ndarray, fields: 
         return []
     ping = None if not fields or "ping" not in fields else np.asarray(fields["ping"])
     noise, index = sounding_noise(points), by_x(points)
-    return [(*top_level(points, r, ping=ping, noise=noise, index=index), ground_level(points, r, index=index),
-             ground_sigma(points, r, index=index)) for r in reefs]
+    return [(*top_level(points, r, ping=ping, noise=noise, index=index),
+             *ground_round(points, r, index=index)) for r in reefs]

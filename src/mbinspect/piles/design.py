@@ -201,16 +201,6 @@ def _design_row(p: Path, lineno: int, cells: list[str], cols: list[int], header:
     return out
 
 
-
-
-
-
-
-
-
-
-
-
 def searched_tilt(options: Any, design: Design | None) -> Any:
     """``options`` with ``max_tilt_deg`` counted beyond the design's largest rake: a pile
     raked 14° that leans 2° more is a pile leaning anew, not something that is no pile (a
