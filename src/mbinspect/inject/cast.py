@@ -248,11 +248,8 @@ def dig_pits(local: np.ndarray, o: np.ndarray, ok: np.ndarray,
     if not pits:
         return out
 
-    def lowering(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return pit_lowering(pits, x, y)
-
     rows = np.flatnonzero(ok)
-    rows = rows[lowering(out[rows, 0], out[rows, 1]) > 0]
+    rows = rows[pit_lowering(pits, out[rows, 0], out[rows, 1]) > 0]
     if not len(rows):
         return out
     p0 = out[rows]
@@ -261,7 +258,7 @@ def dig_pits(local: np.ndarray, o: np.ndarray, ok: np.ndarray,
     down = np.maximum(-d[:, 2], 0.05)  # metres down per metre along the ray
 
     def below(s: np.ndarray) -> np.ndarray:  # > 0 once the ray is under the lowered seabed
-        return s * down - lowering(p0[:, 0] + s * d[:, 0], p0[:, 1] + s * d[:, 1])
+        return s * down - pit_lowering(pits, p0[:, 0] + s * d[:, 0], p0[:, 1] + s * d[:, 1])
 
     # the first crossing: march to it, then halve the bracket
     reach = sum(p[2] for p in pits) / down
