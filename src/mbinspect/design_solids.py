@@ -106,12 +106,39 @@ def design_solids(design: ReefDesign, orientation: str = "upright", x: float = 0
     return _moved(solids, turn((0.0, 0.0, 1.0), -bearing_deg), np.array([x, y, z_base]))
 
 
-@lru_cache(maxsize=64)
-def surface_map(design: ReefDesign, orientation: str, cell: float = 0.02
+@lru_cache(maxsize=256)
+def surface_map(design: ReefDesign, orientation: str, cell: float = 0.02, bloom: float = 0.0
                 ) -> tuple[np.ndarray, float, float]:
     """The upper surface of the design at rest in ``orientation`` (bearing 0, scale 1) on a
     ``cell`` m grid centred on the design's centre: heights (n, n) (0 where no box stands),
-    the grid's first node (x0 = y0) and its cell."""
+    the grid's first node (x0 = y0) and its cell.
+
+    ``bloom`` (m, whole cells): the surface as a beam whose cone has that radius hears it,
+    each point the highest within the cone round it (sampled at half and the whole radius
+    in 12 directions): a top's edge heard beyond it, as the bloom of a finite beam puts it.
+
+    Examples
+    --------
+    >>> from mbinspect.reef_designs import BUILTIN_DESIGNS
+    >>> h, g0, c = surface_map(BUILTIN_DESIGNS["cube"], "upright")
+    >>> hb, gb, _ = surface_map(BUILTIN_DESIGNS["cube"], "upright", bloom=0.2)
+    >>> round(float((h > 0).sum() * c * c), 2), round(float((hb > 0).sum() * c * c), 2)
+    (3.92, 5.61)
+    """
+    if bloom > 0:
+        h, g0, _ = surface_map(design, orientation, cell)
+        pad = int(math.ceil(bloom / cell))
+        h = np.pad(h, pad)
+        out = h.copy()
+        n = len(h)
+        for f in (0.5, 1.0):
+            for t in np.linspace(0.0, 2 * math.pi, 12, endpoint=False):
+                di, dj = (int(round(f * bloom * v / cell)) for v in (math.sin(t), math.cos(t)))
+                # out[j, i] = max(out, h[j + dj, i + di]) where that lies on the map
+                src = h[max(dj, 0): n + min(dj, 0), max(di, 0): n + min(di, 0)]
+                dst = out[max(-dj, 0): n + min(-dj, 0), max(-di, 0): n + min(-di, 0)]
+                np.maximum(dst, src, out=dst)
+        return out, g0 - pad * cell, cell
     solids = design_solids(design, orientation)
     reach = max(float(np.abs(c[:, :2]).max()) for c in corners(solids)) + 2 * cell
     n = 2 * int(math.ceil(reach / cell)) + 1
@@ -122,11 +149,13 @@ def surface_map(design: ReefDesign, orientation: str, cell: float = 0.02
 
 
 def sample(design: ReefDesign, orientation: str, xy: np.ndarray, x: float | np.ndarray,
-           y: float | np.ndarray, bearing_deg: float | np.ndarray, scale: float = 1.0) -> np.ndarray:
+           y: float | np.ndarray, bearing_deg: float | np.ndarray, scale: float = 1.0, *,
+           bloom: float = 0.0) -> np.ndarray:
     """The upper surface of the design in ``orientation`` placed at (x, y, bearing, scale),
     at plan points (N, 2) (nearest node of :func:`surface_map`): heights above its base,
-    (N,); or, given K poses (``x``, ``y``, ``bearing_deg`` arrays of K), (K, N)."""
-    h, g0, cell = surface_map(design, orientation)
+    (N,); or, given K poses (``x``, ``y``, ``bearing_deg`` arrays of K), (K, N). ``bloom``:
+    as a beam whose cone has that radius (m) hears it (:func:`surface_map`, to 2 cm)."""
+    h, g0, cell = surface_map(design, orientation, 0.02, round(bloom / scale / 0.02) * 0.02)
     many = np.ndim(bearing_deg) > 0
     b = np.radians(np.atleast_1d(np.asarray(bearing_deg, np.float64)))[:, None]
     c, s = np.cos(b), np.sin(b)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "ring_radii", "grown", "pit_lowering",
-           "pit_scour"]
+           "pit_scour", "clipped", "CLIP"]
 
 #: The rings' width (m).
 RING = 0.5
@@ -37,6 +37,10 @@ FLAT_SPREAD = 0.02
 #: that a true pit read on a fine lattice and a difference map on a coarse one leave out the
 #: same slivers at the footprint's edge.
 MIN_RING_AREA = 1.0
+
+#: A map's cell whose lowering stands farther than this many robust sigmas from its ring's
+#: median is brought back to that bound before the rings' means are taken (:func:`clipped`).
+CLIP = 3.0
 
 
 @dataclass(frozen=True)
@@ -119,6 +123,34 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
             radius = j * RING
             break
     return Scour(depth, float(radius), float(low.sum() * cell_area), float(worth[deepest]), int(len(low)))
+
+
+def clipped(dist: np.ndarray, lowering: np.ndarray, floor: float, *, reach: float) -> np.ndarray:
+    """Each cell's lowering held within :data:`CLIP` robust sigmas (the ring's own, from its
+    median absolute deviation, at least ``floor``) of its ring's median.
+
+    A difference map's cell at an object's edge may hold one sounding that one survey's
+    beam heard on the object's flank or in its shadow: a ring of four such cells has its
+    mean moved by centimetres by that one (through 1° cones, 24 of 441 unchanged reefs
+    called scoured). A true pit's ring spreads by its slope across the ring's width, which
+    the ring's own spread carries, so its cells are left as they are.
+
+    Examples
+    --------
+    >>> d = np.array([0.1, 0.2, 0.3, 0.4, 0.6, 0.7])
+    >>> clipped(d, np.array([0.0, 0.01, -0.01, 0.3, 0.2, 0.2]), 0.01, reach=2.0).round(3).tolist()
+    [0.0, 0.01, -0.01, 0.049, 0.2, 0.2]
+    """
+    out = np.array(lowering, np.float64)
+    use = np.isfinite(out) & (dist <= reach)
+    k = np.floor(dist / RING).astype(np.int64)
+    for ring in np.unique(k[use]):
+        m = use & (k == ring)
+        v = out[m]
+        med = float(np.median(v))
+        s = max(1.4826 * float(np.median(np.abs(v - med))), floor)
+        out[m] = np.clip(v, med - CLIP * s, med + CLIP * s)
+    return out
 
 
 def _at_radius(k: np.ndarray, d: np.ndarray, low: np.ndarray, mean: np.ndarray, n: np.ndarray,

@@ -91,8 +91,9 @@ class _Window:
     """The soundings around one unit, their cells and their heights with the unit's top
     plane taken out (so that a leaning unit is compared level)."""
 
-    def __init__(self, xy: np.ndarray, h: np.ndarray) -> None:
+    def __init__(self, xy: np.ndarray, h: np.ndarray, bloom: float = 0.0) -> None:
         self.xy = xy
+        self.bloom = bloom
         self.order, self.starts = cells_of(xy, CELL)
         self.measured = np.maximum.reduceat(h[self.order], self.starts)
 
@@ -101,8 +102,8 @@ class _Window:
         """The design's surface over each cell (its highest at the cell's soundings), sunk or
         lifted (a unit on a rock or its own edge) as far as fits the soundings (up to 30 %
         of its height); NaN off the design. Given K poses (arrays), (K, cells)."""
-        d = np.maximum.reduceat(sample(design, orientation, self.xy[self.order], x, y, bearing, scale),
-                                self.starts, axis=-1)
+        d = np.maximum.reduceat(sample(design, orientation, self.xy[self.order], x, y, bearing, scale,
+                                       bloom=self.bloom), self.starts, axis=-1)
         m = self.measured
         on = d > 0
         both = on & (m > 0.1 * tall)
@@ -168,7 +169,7 @@ def _best_pose(win: _Window, design: ReefDesign, orientation: str, x: float, y: 
 
 def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[ReefDesign], *,
             noise: float, ping: np.ndarray | None = None, design: str = "",
-            pose: tuple[float, float, float, float] | None = None) -> Rest:
+            pose: tuple[float, float, float, float] | None = None, bloom: float = 0.0) -> Rest:
     """How one unit rests: its top's tilt and its best orientation.
 
     Parameters
@@ -187,6 +188,11 @@ def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[R
     ping : ndarray of int, shape (N,), optional
     pose : (x, y, bearing_deg, scale), optional
         The upright fit's pose: the upright comparison starts there.
+    bloom : float, optional
+        Told the beam, its cone's radius where the unit was heard (m): each orientation's
+        surface is compared as that beam hears it (:func:`~mbinspect.design_solids.surface_map`),
+        its tops spread by it. Through 1° cones the thin design's surfaces took a double-layer
+        cross upright, its top bars spread, for one upside down (22 of 853 upright units).
 
     Returns
     -------
@@ -203,7 +209,7 @@ def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[R
     chosen = [d for d in designs if d.name == design] if design else list(designs)
     if not chosen:
         return Rest(top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note)
-    win = _Window(xy, level)
+    win = _Window(xy, level, bloom)
     weight = np.maximum(h[own], 0.0)
     centre = ((xy[own] * weight[:, None]).sum(axis=0) / max(weight.sum(), 1e-12) if own.any()
               else xy.mean(axis=0))
@@ -265,7 +271,7 @@ OVERTURNED_FIT = 0.25
 
 def with_rest(reef: Reef, rows: np.ndarray, own: np.ndarray, points: np.ndarray, height: np.ndarray,
               designs: Sequence[ReefDesign], *, noise: float, ping: np.ndarray | None = None,
-              pose: tuple[float, float, float, float] | None = None) -> Reef:
+              pose: tuple[float, float, float, float] | None = None, cone: np.ndarray | None = None) -> Reef:
     """``reef`` with how it rests (:func:`rest_of`): its top's tilt, and with designs its
     best orientation and whether it is overturned.
 
@@ -285,11 +291,15 @@ def with_rest(reef: Reef, rows: np.ndarray, own: np.ndarray, points: np.ndarray,
     ping : ndarray of int, shape (N,), optional
     pose : (x, y, bearing_deg, scale), optional
         The upright fit's design origin, bearing and scale.
+    cone : ndarray, shape (N,), optional
+        Told the beam, each sounding's cone's radius (m); the unit's own soundings' median is
+        its ``bloom`` (:func:`rest_of`).
     """
     rows = np.union1d(rows, own)
     mine = np.isin(rows, own)
+    bloom = float(np.median(cone[own])) if cone is not None and len(own) else 0.0
     rest = rest_of(points[rows], height[rows], mine, designs, noise=noise,
-                   ping=None if ping is None else ping[rows], design=reef.design, pose=pose)
+                   ping=None if ping is None else ping[rows], design=reef.design, pose=pose, bloom=bloom)
     return replace(reef, top_tilt_deg=rest.top_tilt_deg, top_tilt_sigma_deg=rest.top_tilt_sigma_deg,
                    resting=rest.resting, overturned=rest.overturned, resting_misfit=rest.misfit,
                    resting_note=rest.note,

@@ -16,7 +16,7 @@ from ..neighbours import Cells
 from ..seabed import GROUND_BAND
 from .footprint import Raster
 
-__all__ = ["rounded_shape", "dome_shape", "beam_weights", "cone_reach", "weighted_percentile",
+__all__ = ["rounded_shape", "dome_shape", "beam_weights", "cone_reach", "cone_radius", "weighted_percentile",
            "ground_soundings", "GroundSoundings", "line_levels", "thickness", "cell_soundings",
            "PLATEAU_DEPTH", "TOP_SHARE", "DOME_BASE", "DOME_PLATEAU", "LEVEL_MARGIN", "LEVEL_MIN"]
 
@@ -91,6 +91,18 @@ def cone_reach(points: np.ndarray, origins: np.ndarray, beam_width_deg: float) -
     """
     reach = np.hypot(*(points[:, :2] - origins[:, :2]).T) * math.tan(math.radians(beam_width_deg) / 2)
     return np.nan_to_num(reach, nan=0.0)
+
+
+def cone_radius(points: np.ndarray, origins: np.ndarray, beam_width_deg: float) -> np.ndarray:
+    """The radius (m) of a beam of ``beam_width_deg`` where it heard each of ``points``: the
+    range from its transducer (``origins``) times the tangent of half the beam (0.16 m at
+    18 m for 1°). Unknown transducers (NaN) give 0.
+
+    >>> cone_radius(np.array([[0.0, 0.0, -18.0]]), np.zeros((1, 3)), 1.0).round(3)
+    array([0.157])
+    """
+    rng = np.linalg.norm(points - origins, axis=1) * math.tan(math.radians(beam_width_deg) / 2)
+    return np.nan_to_num(rng, nan=0.0)
 
 
 def beam_weights(reach: np.ndarray, height: float) -> np.ndarray:

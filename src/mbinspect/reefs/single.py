@@ -25,7 +25,7 @@ from .options import ReefOptions
 from .orient import overturned_unit, with_rest
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
 from .results import OtherObject, Reef
-from .shape import cone_reach, ground_soundings
+from .shape import cone_radius, cone_reach, ground_soundings
 from .split import split_reefs
 
 __all__ = ["reef_islands", "single_reefs", "ISLAND_GAP", "ISLAND_CELL"]
@@ -141,7 +141,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     parts, small, raster, used_area, heard = _footprints(points, is_reef, height, options, view)
     ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
     noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
-    reach = None if view is None else cone_reach(points, view.origins, view.beam.beam_across_deg)
+    reach, cone = _cones(points, view)
     sigma = None if reach is None else np.hypot(noise or 0.05, reach)
     reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef, sigma=sigma) for p in parts]
     designs = options.designs
@@ -176,7 +176,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         # or 5 cm when too little seabed shows to measure it)
         around = _around(points, p, raster)
         rest = functools.partial(with_rest, rows=around, own=m, points=points, height=height,
-                                 designs=designs, noise=noise or 0.05, ping=ping)
+                                 designs=designs, noise=noise or 0.05, ping=ping, cone=cone)
         r = rest(r, pose=pose)
         misfit = design_misfit(Candidate(r, p), context, options)
         if misfit:  # no design given fits it: its free-form measures, judged by its shape
@@ -195,6 +195,16 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
             kept.append(r)
             kept_members.append(m)
     return kept, others, used_area, kept_members
+
+
+def _cones(points: np.ndarray, view: Sight | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Told the beam, how far each sounding's cone may sound it above or below the surface
+    (:func:`~mbinspect.reefs.shape.cone_reach`) and the cone's radius where it was heard
+    (:func:`~mbinspect.reefs.shape.cone_radius`); None and None when not told."""
+    if view is None:
+        return None, None
+    width = view.beam.beam_across_deg
+    return cone_reach(points, view.origins, width), cone_radius(points, view.origins, width)
 
 
 def _around(points: np.ndarray, cells: np.ndarray, raster: Raster) -> np.ndarray:
