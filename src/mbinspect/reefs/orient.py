@@ -95,6 +95,7 @@ class _Window:
         self.xy = xy
         self.bloom = bloom
         self.order, self.starts = cells_of(xy, CELL)
+        self.heights = h
         self.measured = np.maximum.reduceat(h[self.order], self.starts)
 
     def surface(self, design: ReefDesign, orientation: str, x: float | np.ndarray, y: float | np.ndarray,
@@ -260,6 +261,11 @@ def _decide(win: _Window, results: list[_Fit]) -> Rest:
     chosen = up if overturned is False else down if overturned else best
     assert chosen is not None
     (m, x, y, b), resting = chosen[0], chosen[2] if overturned is not None else ""
+    if win.bloom > 0:  # how well it fits: as the beam hears it, or as its soundings show once the
+        # bloom beyond its footprint is off (the chain's own unbloom), whichever holds better
+        thin = _best_pose(_Window(win.xy, win.heights), chosen[1], chosen[2], x, y, chosen[3],
+                          np.array([b - 4.0, b, b + 4.0]))
+        m = min(m, thin[0])
     return Rest(chosen[1].name, resting, overturned, m, upright, turned, x, y, b % 360.0, note=note,
                 turned_share=share, n_differ=n_differ)
 
