@@ -53,3 +53,25 @@ def test_a_true_pit_is_read_at_its_depth():
     true = pit_scour([(*CENTRE, 0.4, 4.0)], outline, CENTRE)
     assert abs(got["scour_depth"] - true["scour_depth"]) <= got["scour_depth_lod95"]
     assert got["scour_depth"] > got["scour_depth_lod95"]
+
+
+def test_a_neighbours_pit_reaching_into_the_rings_is_read_as_the_truth_reads_it():
+    # a pit round a neighbour 4.5 m away lowers a patch of this unit's outer rings: held to
+    # each ring's median cell by cell, the rings lost it (the real XTF's unchanged piles
+    # beside a scoured one: 14 mm RMS off, 44 % within the bound); a patch is kept whole
+    rng = np.random.default_rng(9)
+    errors = []
+    for _ in range(10):
+        cx, cy = CENTRE[0] + 4.5, CENTRE[1] + rng.uniform(-0.5, 0.5)
+
+        def pit(gx, gy, cx=cx, cy=cy):
+            r = np.hypot(gx - cx, gy - cy)
+            return np.where(r < 3.5, 0.5 * (1 + np.cos(np.pi * r / 3.5)) / 2, 0.0)
+
+        diff, outline = _map(rng, pit)
+        got = scour_of(diff, MapNoise(0.01), CENTRE, [outline], reach=6.0)
+        true = pit_scour([(cx, cy, 0.5, 3.5)], outline, CENTRE)
+        errors.append((got["scour_depth"] - true["scour_depth"], got["scour_depth_lod95"]))
+    e = np.array(errors)
+    within = np.abs(e[:, 0]) <= e[:, 1]
+    assert within.sum() >= 9 and np.all(np.abs(e[:, 0]) <= 2 * e[:, 1]), e.round(4)  # held in: 15-24 mm short

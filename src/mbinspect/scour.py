@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["RING", "REACH", "FOOT_MARGIN", "Scour", "scour_rings", "ring_radii", "grown", "pit_lowering",
-           "pit_scour", "clipped", "CLIP"]
+           "pit_scour", "clipped", "lone", "CLIP"]
 
 #: The rings' width (m).
 RING = 0.5
@@ -125,15 +125,19 @@ def scour_rings(dist: np.ndarray, lowering: np.ndarray, cell_area: float, *, rea
     return Scour(depth, float(radius), float(low.sum() * cell_area), float(worth[deepest]), int(len(low)))
 
 
-def clipped(dist: np.ndarray, lowering: np.ndarray, floor: float, *, reach: float) -> np.ndarray:
+def clipped(dist: np.ndarray, lowering: np.ndarray, floor: float, *, reach: float,
+            only: np.ndarray | None = None) -> np.ndarray:
     """Each cell's lowering held within :data:`CLIP` robust sigmas (the ring's own, from its
-    median absolute deviation, at least ``floor``) of its ring's median.
+    median absolute deviation, at least ``floor``) of its ring's median; given ``only``, those
+    cells alone (:func:`lone`: the others stand with their neighbours).
 
     A difference map's cell at an object's edge may hold one sounding that one survey's
     beam heard on the object's flank or in its shadow: a ring of four such cells has its
     mean moved by centimetres by that one (through 1° cones, 24 of 441 unchanged reefs
     called scoured). A true pit's ring spreads by its slope across the ring's width, which
-    the ring's own spread carries, so its cells are left as they are.
+    the ring's own spread carries, and a pit reaching into part of a ring (a neighbour's,
+    or one scoured deeper downstream) lowers whole patches of cells together, which
+    ``only`` leaves as they are.
 
     Examples
     --------
@@ -149,8 +153,34 @@ def clipped(dist: np.ndarray, lowering: np.ndarray, floor: float, *, reach: floa
         v = out[m]
         med = float(np.median(v))
         s = max(1.4826 * float(np.median(np.abs(v - med))), floor)
-        out[m] = np.clip(v, med - CLIP * s, med + CLIP * s)
+        held = np.clip(v, med - CLIP * s, med + CLIP * s)
+        out[m] = held if only is None else np.where(only[m], held, v)
     return out
+
+
+def lone(z: np.ndarray, sigma: float) -> np.ndarray:
+    """The cells of a map (2-D, NaN: unknown) that stand more than :data:`CLIP` ``sigma``
+    beyond all their known neighbours but one (of the eight, at least three known), up or
+    down: a cell or a pair on its own, not part of a patch that went down or up together
+    (nor a pit's floor, which curves up on every side by less).
+
+    Examples
+    --------
+    >>> z = np.zeros((7, 7)); z[2, 2] = 0.2; z[5:, :] = 0.2  # a spike, and a band that went up
+    >>> np.argwhere(lone(z, 0.01)).tolist()
+    [[2, 2]]
+    """
+    ny, nx = z.shape
+    p = np.pad(np.asarray(z, np.float64), 1, constant_values=np.nan)
+    around = np.stack([p[1 + dj: 1 + dj + ny, 1 + di: 1 + di + nx]
+                       for dj in (-1, 0, 1) for di in (-1, 0, 1) if di or dj])
+    known = np.isfinite(around).sum(axis=0)
+    low = np.sort(np.where(np.isfinite(around), around, np.inf), axis=0)  # ascending, unknown last
+    high = np.sort(np.where(np.isfinite(around), around, -np.inf), axis=0)  # unknown first
+    with np.errstate(invalid="ignore"):
+        below = z < low[1] - CLIP * sigma  # under all but the lowest neighbour
+        above = z > high[-2] + CLIP * sigma
+    return (known >= 3) & (below | above)
 
 
 def _at_radius(k: np.ndarray, d: np.ndarray, low: np.ndarray, mean: np.ndarray, n: np.ndarray,

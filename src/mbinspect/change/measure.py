@@ -23,7 +23,7 @@ import numpy as np
 from ..geometry import points_in_polygon
 from ..reefs.plan import bearing_sigma_of, position_sigma_of
 from ..reefs.results import Reef
-from ..scour import RING, clipped, grown, ring_radii, scour_rings
+from ..scour import RING, clipped, grown, lone, ring_radii, scour_rings
 from .grid import Grid
 from .options import ChangeOptions
 from .register import Registration
@@ -238,7 +238,8 @@ def scour_of(diff: Grid, noise: MapNoise, centre: tuple[float, float], outlines:
     area, sigma = diff.cell**2, noise.sigma
     share = max(area / max(noise.area, area), 1e-9)  # the independent share of a cell
     radii, areas = _ring_radii(diff, centre, outlines, reach) if at_radius else (None, None)
-    s = scour_rings(d, clipped(d, -(diffs - level), sigma, reach=reach), area, reach=reach,
+    odd = lone(z, sigma)[near][~inside]
+    s = scour_rings(d, clipped(d, -(diffs - level), sigma, reach=reach, only=odd), area, reach=reach,
                     ring_radius=radii, ring_area=areas)
     if s.cells == 0:
         return nan
