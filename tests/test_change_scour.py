@@ -1,6 +1,6 @@
 """Scour round a reef unit read from the registered difference map: one cell that one
-survey's beam heard on the unit's flank or in its shadow makes no pit, and a true pit is
-still read at its depth."""
+survey's beam heard on the unit's flank or in its shadow makes no pit; a true pit, and a
+neighbour's pit reaching into part of the unit's rings, are still read at their depth."""
 
 from __future__ import annotations
 
