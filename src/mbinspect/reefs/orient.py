@@ -211,7 +211,6 @@ def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[R
     if not chosen:
         return Rest(top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note)
     win = _Window(xy, level, bloom)
-    thin = _Window(xy, level) if bloom > 0 else win
     weight = np.maximum(h[own], 0.0)
     centre = ((xy[own] * weight[:, None]).sum(axis=0) / max(weight.sum(), 1e-12) if own.any()
               else xy.mean(axis=0))
@@ -224,13 +223,8 @@ def rest_of(xyz: np.ndarray, h: np.ndarray, own: np.ndarray, designs: Sequence[R
                                  np.array([pose[2] - 4.0, pose[2], pose[2] + 4.0]))
             else:
                 sym = d.symmetry if way in ("upright", "upside down") else 2
-                # told the beam, the sweep finds the pose on the thin surface and the spread
-                # one is fitted from there (its own sweep fell into a wrong turn of a unit on its side)
-                fit = _best_pose(thin, d, way, float(centre[0]), float(centre[1]), scale,
+                fit = _best_pose(win, d, way, float(centre[0]), float(centre[1]), scale,
                                  np.arange(0.0, 360.0 / sym, 6.0))
-                if thin is not win:
-                    fit = _best_pose(win, d, way, fit[1], fit[2], scale,
-                                     np.array([fit[3] - 4.0, fit[3], fit[3] + 4.0]))
             results.append((fit, d, way, scale))
     rest = _decide(win, results)
     return replace(rest, top_tilt_deg=tilt, top_tilt_sigma_deg=tilt_sigma, note=note or rest.note)
