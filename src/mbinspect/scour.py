@@ -38,8 +38,9 @@ FLAT_SPREAD = 0.02
 #: same slivers at the footprint's edge.
 MIN_RING_AREA = 1.0
 
-#: A map's cell whose lowering stands farther than this many robust sigmas from its ring's
-#: median is brought back to that bound before the rings' means are taken (:func:`clipped`).
+#: A lone cell of a map (this many map sigmas beyond its neighbours, :func:`lone`) whose
+#: lowering stands farther than this many robust sigmas from its ring's median is brought
+#: back to that bound before the rings' means are taken (:func:`clipped`).
 CLIP = 3.0
 
 
