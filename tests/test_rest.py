@@ -199,3 +199,31 @@ def test_rest_of_without_designs_gives_the_tilt_alone():
     rest = rest_of(np.column_stack([xy, h - 10.0]), h, own, (), noise=0.01)
     assert rest.design == "" and rest.overturned is None
     assert rest.top_tilt_deg == pytest.approx(math.degrees(math.atan(0.05)), abs=0.5)
+
+
+def test_through_the_beam_a_double_cross_upside_down_in_an_ascii_export_is_flagged(tmp_path):
+    """The R2Sonic XTF with four units injected through 1 deg cones, written as three columns
+    (pings and transducers then estimated from the soundings' order): spread by the cone, an
+    upright double cross's top bars are the width of its lower ones, and the upside-down unit
+    beat upright by 0.095 m, under the 0.10 m margin, until the margin followed how far the
+    two spread surfaces lie apart."""
+    from mbinspect.beam import Beam
+
+    cloud = read(Path(__file__).parent / "data" / "R2Testing_0009.xtf")
+    x0, y0 = 554824.64, 4179011.24  # the flat sand in the swath's middle
+    units = [InjectedReef(1, x0 - 4.0, y0 - 4.0, "cross2", 20.0),
+             InjectedReef(2, x0 + 4.0, y0 - 4.0, "cross1", 40.0, orientation="on its side"),
+             InjectedReef(3, x0 - 4.0, y0 + 4.0, "cross2", 60.0, orientation="upside down"),
+             InjectedReef(4, x0 + 4.0, y0 + 4.0, "hollow", 80.0)]
+    inj = inject(cloud.xyz, cloud.fields, reefs=units, beam=Beam(beam_across_deg=1.0))
+    write(PointCloud(inj.xyz, {}, crs=cloud.crs), tmp_path / "inj.xyz")
+    bare = read(tmp_path / "inj.xyz", crs=cloud.crs)
+    res = extract_reefs(bare, design="cross2,cross1,hollow,triangle", beam_correction=True,
+                        beam_width_deg=1.0)
+    got = {}
+    for t in inj.truth["reefs"]:
+        f = min(res.reefs, key=lambda r: math.hypot(r.x - t["x"], r.y - t["y"]))
+        assert math.hypot(f.x - t["x"], f.y - t["y"]) < 1.5
+        got[t["id"]] = (f.design, f.resting)
+    assert got == {1: ("cross2", "upright"), 2: ("cross1", "on its side"),
+                   3: ("cross2", "upside down"), 4: ("hollow", "upright")}

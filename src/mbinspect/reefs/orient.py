@@ -11,7 +11,8 @@ orientation that looks different from above
 best bearing and position, the cells' highest soundings against the design's surface at
 the same soundings (mean absolute difference); a unit is called overturned only when another
 orientation beats upright by :data:`OVERTURNED_MARGIN` of the height and
-:data:`OVERTURNED_SHARE` of the cells where the two differ side with it. A design that looks
+:data:`OVERTURNED_SHARE` of the cells where the two differ side with it (told the beam, the
+margin is at most :data:`OVERTURNED_SEPARATION` of how far the two surfaces lie apart). A design that looks
 alike every way (a solid cube) cannot tell: ``overturned`` is then None.
 """
 
@@ -29,7 +30,8 @@ from .results import Reef
 from .tilt import CELL, cells_of, tilt_of, top_plane
 
 __all__ = ["Rest", "rest_of", "with_rest", "overturned_unit",
-           "OVERTURNED_MARGIN", "OVERTURNED_SHARE", "OVERTURNED_FIT"]
+           "OVERTURNED_MARGIN", "OVERTURNED_SHARE", "OVERTURNED_FIT",
+           "OVERTURNED_SEPARATION"]
 
 #: How much better (a share of the design's height, mean absolute) an orientation other
 #: than upright must fit before a unit is called overturned ...
@@ -38,6 +40,14 @@ OVERTURNED_MARGIN = 0.05
 #: ... and the share of the cells where the two differ (by a quarter of the height) whose
 #: soundings must lie nearer the overturned one (measured: ``benchmarks/study_rest.py``).
 OVERTURNED_SHARE = 0.6
+
+#: Told the beam, the margin is also met by this share of how far the two orientations'
+#: surfaces, each spread by the cone (:func:`~mbinspect.design_solids.surface_map`), lie
+#: apart: spread by 0.1 m, an upright double cross's top bars are the width of its lower
+#: ones, and an upside-down unit in the real R2Sonic XTF beat upright by 0.30-0.36 of that
+#: (0.09-0.10 m, under the margin's 0.10 m) where no upright unit in ``study_rest.py`` or
+#: ``study_change.py`` through 1° cones came above 0.04.
+OVERTURNED_SEPARATION = 0.2
 
 #: Fewest cells where upright and overturned differ for the orientation to be told.
 _MIN_DIFFER = 8
@@ -130,6 +140,12 @@ class _Window:
         e = np.where(used, np.abs(m - np.nan_to_num(d)), 0.0).sum(axis=1)
         n = used.sum(axis=1)
         return np.where(n > 0, e / np.maximum(n, 1), np.inf)
+
+    def separation(self, a: np.ndarray, b: np.ndarray, tall: float) -> float:
+        """Mean absolute difference (m) of two surfaces (:meth:`surface`) over the cells
+        either stands in or the soundings rise in (those :meth:`misfit` counts)."""
+        used = np.isfinite(a) | np.isfinite(b) | (self.measured > 0.2 * tall)
+        return float(np.abs(np.nan_to_num(a) - np.nan_to_num(b))[used].mean()) if used.any() else 0.0
 
     def preference(self, a: np.ndarray, b: np.ndarray, tall: float) -> tuple[float, int]:
         """Of the cells where two surfaces (:meth:`surface`) differ by more than a quarter
@@ -250,14 +266,17 @@ def _decide(win: _Window, results: list[_Fit]) -> Rest:
         note = f"the {best[1].name} design looks alike every way up: its orientation cannot be told"
     else:
         tall = max(up[1].height * up[3], down[1].height * down[3])
-        share, n_differ = win.preference(win.surface(up[1], "upright", *up[0][1:], up[3], tall),
-                                         win.surface(down[1], down[2], *down[0][1:], down[3], tall), tall)
+        a = win.surface(up[1], "upright", *up[0][1:], up[3], tall)
+        b = win.surface(down[1], down[2], *down[0][1:], down[3], tall)
+        share, n_differ = win.preference(a, b, tall)
+        margin = OVERTURNED_MARGIN * down[1].height * down[3]
+        if win.bloom > 0:  # spread by the beam, the two surfaces lie nearer each other
+            margin = min(margin, OVERTURNED_SEPARATION * win.separation(a, b, tall))
         if n_differ < _MIN_DIFFER:
             note = (f"{n_differ} cells where upright and {down[2]} differ (fewer than {_MIN_DIFFER}): "
                     "its orientation cannot be told")
         else:
-            overturned = bool(upright - turned >= OVERTURNED_MARGIN * down[1].height * down[3]
-                              and share >= OVERTURNED_SHARE)
+            overturned = bool(upright - turned >= margin and share >= OVERTURNED_SHARE)
     chosen = up if overturned is False else down if overturned else best
     assert chosen is not None
     (m, x, y, b), resting = chosen[0], chosen[2] if overturned is not None else ""
