@@ -266,12 +266,12 @@ def _decide(win: _Window, results: list[_Fit]) -> Rest:
         note = f"the {best[1].name} design looks alike every way up: its orientation cannot be told"
     else:
         tall = max(up[1].height * up[3], down[1].height * down[3])
-        a = win.surface(up[1], "upright", *up[0][1:], up[3], tall)
-        b = win.surface(down[1], down[2], *down[0][1:], down[3], tall)
-        share, n_differ = win.preference(a, b, tall)
+        upper = win.surface(up[1], "upright", *up[0][1:], up[3], tall)
+        other = win.surface(down[1], down[2], *down[0][1:], down[3], tall)
+        share, n_differ = win.preference(upper, other, tall)
         margin = OVERTURNED_MARGIN * down[1].height * down[3]
         if win.bloom > 0:  # spread by the beam, the two surfaces lie nearer each other
-            margin = min(margin, OVERTURNED_SEPARATION * win.separation(a, b, tall))
+            margin = min(margin, OVERTURNED_SEPARATION * win.separation(upper, other, tall))
         if n_differ < _MIN_DIFFER:
             note = (f"{n_differ} cells where upright and {down[2]} differ (fewer than {_MIN_DIFFER}): "
                     "its orientation cannot be told")
