@@ -47,6 +47,8 @@ CONFIGS: dict[str, dict] = {
                    **FIELD},
     "mixed-beam-told": {"groups": "mixed", "overturned": 6, "tilt_max_deg": 12.0, "sonar": "shallow-beam",
                         **FIELD},
+    "cross2-beam-told": {"groups": "cross2", "overturned": 6, "tilt_max_deg": 12.0, "sonar": "shallow-beam",
+                         **FIELD},
     "default": {},
 }
 TOLD = {"beam_correction": True, "beam_width_deg": 1.0}  # the shallow-beam sonar's 1° cones

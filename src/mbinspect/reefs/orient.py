@@ -31,7 +31,7 @@ from .tilt import CELL, cells_of, tilt_of, top_plane
 
 __all__ = ["Rest", "rest_of", "with_rest", "overturned_unit",
            "OVERTURNED_MARGIN", "OVERTURNED_SHARE", "OVERTURNED_FIT",
-           "OVERTURNED_SEPARATION"]
+           "OVERTURNED_SEPARATION", "UNTOLD_SHARE"]
 
 #: How much better (a share of the design's height, mean absolute) an orientation other
 #: than upright must fit before a unit is called overturned ...
@@ -48,6 +48,13 @@ OVERTURNED_SHARE = 0.6
 #: (0.09-0.10 m, under the margin's 0.10 m) where no upright unit in ``study_rest.py`` or
 #: ``study_change.py`` through 1° cones came above 0.04.
 OVERTURNED_SEPARATION = 0.2
+
+#: Told the beam, a unit not called overturned is left undecided when at least this share
+#: of the cells where upright and the best other orientation differ side with the other: a
+#: double cross upside down through 1° cones at 17-23 m (its 0.8 m top bars spread 0.16-0.23 m,
+#: an upright one's 0.6 m bars as much) had 50-69 % of those cells on its side and was read
+#: upright; of 60 upright ones none came above 47 % (``study_rest.py``'s cross2-beam-told).
+UNTOLD_SHARE = 0.5
 
 #: Fewest cells where upright and overturned differ for the orientation to be told.
 _MIN_DIFFER = 8
@@ -277,6 +284,10 @@ def _decide(win: _Window, results: list[_Fit]) -> Rest:
                     "its orientation cannot be told")
         else:
             overturned = bool(upright - turned >= margin and share >= OVERTURNED_SHARE)
+            if not overturned and win.bloom > 0 and share >= UNTOLD_SHARE:
+                overturned = None  # the soundings do not side with upright
+                note = (f"upright and {down[2]} cannot be told apart through the beam: {share:.0%} of the "
+                        f"{n_differ} cells where they differ side with {down[2]}")
     chosen = up if overturned is False else down if overturned else best
     assert chosen is not None
     (m, x, y, b), resting = chosen[0], chosen[2] if overturned is not None else ""

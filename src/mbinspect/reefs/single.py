@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -13,6 +14,7 @@ from scipy import ndimage
 
 from ..grid import cell_index, fill_holes
 from ..noise import robust_sigma
+from ..reef_designs import ReefDesign
 from ..seabed import GROUND_BAND
 from ..strays import cell_groups
 from .beam import Sight, unbloom_parts
@@ -180,13 +182,13 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
         r = rest(r, pose=pose)
         misfit = design_misfit(Candidate(r, p), context, options)
         if misfit:  # no design given fits it: its free-form measures, judged by its shape
-            r = rest(f) if designs else f  # every design, every way it may lie
+            r = _free_rest(r, f, rest, designs) if designs else f  # every design, every way it may lie
             why = why_not_a_reef(Candidate(f, p, _heard(heard, p)), context, options)
             why = f"{misfit}; as a free-form object: {why}" if why else None
         else:
             why = why_not_a_reef(Candidate(r, p, _heard(heard, p)), context, options)
             if why and designs and r.design:
-                r = rest(f)
+                r = _free_rest(r, f, rest, designs)
         if (misfit or why) and overturned_unit(r, designs):  # on its side or upside down
             why = None
         if why:
@@ -195,6 +197,24 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
             kept.append(r)
             kept_members.append(m)
     return kept, others, used_area, kept_members
+
+
+def _free_rest(posed: Reef, free: Reef, rest: Callable[[Reef], Reef], designs: Sequence[ReefDesign]) -> Reef:
+    """How a unit its upright design fit does not hold rests: its free-form measures, every
+    design compared every way at its design size (``rest(free)``); where that comparison
+    cannot tell (``overturned`` None), the comparison at the design fit's pose and size
+    (``posed``) when it found the unit overturned (:func:`overturned_unit`) and fits it
+    better. Through 1° cones, double crosses on their side were found so at the design fit's
+    pose (misfit 0.41-0.48 m) and then read upright at their design size (0.59-0.61 m, 51-60 %
+    of the cells where the two differ siding with on its side): lost among the rocks. A rock
+    the free form reads upright (29 %) stays a rock, however well a shrunken unit on its side
+    fits it."""
+    r = rest(free)
+    if posed.overturned and r.overturned is None and overturned_unit(posed, designs) \
+            and posed.resting_misfit < r.resting_misfit:
+        return replace(r, resting=posed.resting, overturned=True, resting_misfit=posed.resting_misfit,
+                       resting_note=posed.resting_note, design=posed.design)
+    return r
 
 
 def _cones(points: np.ndarray, view: Sight | None) -> tuple[np.ndarray | None, np.ndarray | None]:
