@@ -258,7 +258,7 @@ def test_a_unit_its_design_fit_found_on_its_side_stays_so_unless_the_free_form_f
     assert _free_rest(loose, free, lambda r: untold, designs) is untold
 
 
-def test_through_the_beam_a_double_cross_the_soundings_cannot_tell_is_left_undecided():
+def test_through_the_beam_a_double_cross_the_soundings_cannot_tell_is_left_undecided(tmp_path, capsys):
     """Nine double crosses at 17 m through 1 deg cones, four overturned: spread 0.2 m by the
     cone, an upside-down unit's 0.8 m top bars and an upright one's 0.6 m bars look alike;
     unit 6 (upside down, leaning 8.6 deg) was read upright, though 64 % of the cells where the
@@ -276,3 +276,16 @@ def test_through_the_beam_a_double_cross_the_soundings_cannot_tell_is_left_undec
     assert all(o is False for way, o, _ in got.values() if way == "upright")
     assert got[6][1] is None and "cannot be told apart through the beam" in got[6][2]
     assert [got[i][1] for i in (4, 7, 8)] == [True, True, True]
+    # the command line says so, from a LAZ file, in memory and in tiles
+    field = tmp_path / "field.laz"
+    write(PointCloud(sim.cloud.xyz, sim.cloud.fields, crs="EPSG:32650"), field)
+    t6 = next(t for t in sim.truth["reefs"] if t["id"] == 6)
+    for tiled in (False, True):
+        out = tmp_path / f"out{tiled}"
+        argv = ["reefs", str(field), "--design", "cross2,cross1,hollow,triangle", "--beam-correction",
+                "--beam-width-deg", "1", "--no-figures", "--out", str(out)]
+        assert main(argv + (["--tiled", "--tile-size", "120", "--workers", "1"] if tiled else [])) == 0
+        assert "1 whose orientation the beam leaves undecided" in capsys.readouterr().out
+        d = json.loads((out / "reefs.json").read_text())
+        r6 = min(d["reefs"], key=lambda r: math.hypot(r["x"] - t6["x"], r["y"] - t6["y"]))
+        assert r6["overturned"] is None and "cannot be told apart" in r6["resting_note"]

@@ -96,6 +96,10 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
         turned = [r for r in d["reefs"] if r.get("overturned")]
         if turned:
             print(f"{len(turned)} overturned: " + ", ".join(f"reef {r['id']} {r['resting']}" for r in turned))
+        untold = [r for r in d["reefs"] if "cannot be told apart" in (r.get("resting_note") or "")]
+        if untold:
+            print(f"{len(untold)} whose orientation the beam leaves undecided (see resting_note): "
+                  + ", ".join(f"reef {r['id']}" for r in untold))
     for w in result.warnings:
         print(f"mbinspect: warning: {w}", file=sys.stderr)
     rep.info(f"results in {out}/ (report.html, reefs.json, reefs.csv, reefs.geojson"
