@@ -93,13 +93,7 @@ def _cmd_reefs(args: argparse.Namespace, rep: Reporter, argv: Sequence[str]) -> 
                   "reefs not in the plan"
                   + (f"; {sum(r.get('in_permit') is False for r in d['reefs'])} outside the permit area"
                      if args.permit_area else ""))
-        turned = [r for r in d["reefs"] if r.get("overturned")]
-        if turned:
-            print(f"{len(turned)} overturned: " + ", ".join(f"reef {r['id']} {r['resting']}" for r in turned))
-        untold = [r for r in d["reefs"] if "cannot be told apart" in (r.get("resting_note") or "")]
-        if untold:
-            print(f"{len(untold)} whose orientation the beam leaves undecided (see resting_note): "
-                  + ", ".join(f"reef {r['id']}" for r in untold))
+        _print_rest(d["reefs"])
     for w in result.warnings:
         print(f"mbinspect: warning: {w}", file=sys.stderr)
     rep.info(f"results in {out}/ (report.html, reefs.json, reefs.csv, reefs.geojson"
@@ -151,3 +145,14 @@ def add_parser(sub: Any) -> None:
     add_input(p, many=True)
     _add_reef_options(p)
     p.set_defaults(func=_cmd_reefs, options_class=ReefOptions)
+
+
+def _print_rest(reefs: list[dict]) -> None:
+    """The units overturned, and those whose orientation the beam leaves undecided."""
+    turned = [r for r in reefs if r.get("overturned")]
+    if turned:
+        print(f"{len(turned)} overturned: " + ", ".join(f"reef {r['id']} {r['resting']}" for r in turned))
+    untold = [r for r in reefs if "cannot be told apart" in (r.get("resting_note") or "")]
+    if untold:
+        print(f"{len(untold)} whose orientation the beam leaves undecided (see resting_note): "
+              + ", ".join(f"reef {r['id']}" for r in untold))
