@@ -1,7 +1,8 @@
 """Every real file of ``../shared/real/files`` through ``mbinspect reefs`` four ways: in memory,
 tiled on two Dask workers, and written out as LAS and as ASCII then read back (in memory).
 
-Run: ``python benchmarks/real_four_ways.py [--only NAME] [--command reefs]``. Per file: the
+Run: ``python benchmarks/real_four_ways.py [--only NAME] [--command reefs] [--with FLAGS]``
+(``--with`` adds flags to every run). Per file: the
 exit status and the outcome line of each way (the summary, or the error or no-answer reason
 up to its first ';'), whether the four agree, and any traceback. The files a reader refuses
 give the same refusal each way they can be run (the exports need a read).
@@ -36,11 +37,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only", default="", help="only the files whose name holds this")
     ap.add_argument("--command", default="reefs", choices=["reefs", "piles"])
+    ap.add_argument("--with", dest="more", default="",
+                    help="more flags for every run, in one string (say '--design cross2 --beam-correction')")
     args = ap.parse_args()
     from mbinspect.errors import MBInspectError
     from mbinspect.io import read, write
 
-    extra = ["--radius", "0.75"] if args.command == "piles" else []
+    extra = (["--radius", "0.75"] if args.command == "piles" else []) + args.more.split()
     rows, agree = [], 0
     with tempfile.TemporaryDirectory() as tmp:
         for path in sorted((REAL / "files").iterdir()):
