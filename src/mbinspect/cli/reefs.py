@@ -149,10 +149,12 @@ def add_parser(sub: Any) -> None:
 
 def _print_rest(reefs: list[dict]) -> None:
     """The units overturned, and those whose orientation the beam leaves undecided."""
+    from ..reefs.orient import UNTOLD
+
     turned = [r for r in reefs if r.get("overturned")]
     if turned:
         print(f"{len(turned)} overturned: " + ", ".join(f"reef {r['id']} {r['resting']}" for r in turned))
-    untold = [r for r in reefs if "cannot be told apart" in (r.get("resting_note") or "")]
+    untold = [r for r in reefs if UNTOLD in (r.get("resting_note") or "")]
     if untold:
         print(f"{len(untold)} whose orientation the beam leaves undecided (see resting_note): "
               + ", ".join(f"reef {r['id']}" for r in untold))

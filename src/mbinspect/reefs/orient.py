@@ -31,7 +31,7 @@ from .tilt import CELL, cells_of, tilt_of, top_plane
 
 __all__ = ["Rest", "rest_of", "with_rest", "overturned_unit",
            "OVERTURNED_MARGIN", "OVERTURNED_SHARE", "OVERTURNED_FIT",
-           "OVERTURNED_SEPARATION", "UNTOLD_SHARE"]
+           "OVERTURNED_SEPARATION", "UNTOLD_SHARE", "UNTOLD"]
 
 #: How much better (a share of the design's height, mean absolute) an orientation other
 #: than upright must fit before a unit is called overturned ...
@@ -55,6 +55,10 @@ OVERTURNED_SEPARATION = 0.2
 #: an upright one's 0.6 m bars as much) had 50-69 % of those cells on its side and was read
 #: upright; of 60 upright ones none came above 47 % (``study_rest.py``'s cross2-beam-told).
 UNTOLD_SHARE = 0.5
+
+#: The words a ``resting_note`` holds when the beam left a unit undecided (the command line
+#: lists those units).
+UNTOLD = "cannot be told apart through the beam"
 
 #: Fewest cells where upright and overturned differ for the orientation to be told.
 _MIN_DIFFER = 8
@@ -286,7 +290,7 @@ def _decide(win: _Window, results: list[_Fit]) -> Rest:
             overturned = bool(upright - turned >= margin and share >= OVERTURNED_SHARE)
             if not overturned and win.bloom > 0 and share >= UNTOLD_SHARE:
                 overturned = None  # the soundings do not side with upright
-                note = (f"upright and {down[2]} cannot be told apart through the beam: {share:.0%} of the "
+                note = (f"upright and {down[2]} {UNTOLD}: {share:.0%} of the "
                         f"{n_differ} cells where they differ side with {down[2]}")
     chosen = up if overturned is False else down if overturned else best
     assert chosen is not None
