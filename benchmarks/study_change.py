@@ -44,6 +44,9 @@ CONFIGS: dict[str, tuple[dict, tuple[float, float], dict]] = {
     "seabed-only": ({}, (0.5, 0.3), {"tie_objects": False}),
     # both surveys through 1° cones (issue 28), the reef chain told the beam
     "beam-1-told": ({"beam_across_deg": 1.0}, (0.5, 0.3), {}),
+    # the same with pings 0.25 m apart, closer than a cone is wide at 17 m (0.30 m): every
+    # seabed point heard by some ping (issue 30's placement limit at the preset's 0.55 m)
+    "beam-1-told-0.25": ({"beam_across_deg": 1.0, "ping_spacing": 0.25}, (0.5, 0.3), {}),
 }
 
 #: What each kind of change must show to count as found.

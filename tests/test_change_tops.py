@@ -119,3 +119,32 @@ def test_the_exposed_height_stands_on_the_seabed_round_the_unit_in_a_scour_pit()
     assert math.isnan(ground_level(pts[unit], _unit()))
     lone = _levels(before, after, IDENTITY, [], (flat, (-10.0, 0.01, "", math.nan, 0.0)))
     assert lone["height_change"] == pytest.approx(0.4)
+
+
+def test_told_the_beam_the_seabed_round_a_unit_is_read_beyond_its_bloom() -> None:
+    """Through a cone, the seabed just beyond a unit's (unbloomed) outline is heard with the
+    unit's wall in it: soundings within the cone's radius of the wall stand high. Told the
+    beam (the unit carries its ``beam_footprint``), the band stands half a footprint farther
+    out and reads the seabed; thin (no footprint), the band is where it was. In a scour pit
+    the moved band's level is carried back down the pit's wall to where the band stood."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(-3, 3, (60_000, 2))
+    gap = np.abs(xy).max(axis=1) - 1.0  # distance beyond the square's outline (near its sides)
+    unit = gap <= 0
+    bloom = (gap > 0) & (gap <= 0.3)  # a 0.6 m cone's radius: the wall heard 0.1 m up
+    z = np.where(unit, -10.0, -11.0 + 0.1 * bloom) + rng.normal(0, 0.01, len(gap))
+    pts = np.column_stack([xy, z])
+    thin, told = _unit(), replace(_unit(), beam_footprint=0.6)
+    assert ground_level(pts, thin) > -11.0 + 0.03  # the bloom lifts the band's seabed
+    assert abs(ground_level(pts, told) + 11.0) < 0.005
+    # a pit round the unit, 0.8 m deep at its centre and 3 m in radius: 0.27 m a metre
+    r = np.hypot(*xy.T)
+    pit = np.where(unit, -10.0, -11.0 - 0.8 * np.clip(1 - r / 3.0, 0, 1)) + rng.normal(0, 0.01, len(r))
+    pts = np.column_stack([xy, pit])
+    where_thin, moved = ground_level(pts, thin), ground_level(pts, told)
+    assert abs(moved - where_thin) < 0.02
+    with pytest.MonkeyPatch.context() as mp:  # not carried back: the moved band's own level
+        mp.setattr("mbinspect.change.tops.PIT_SLOPE", math.inf)
+        assert ground_level(pts, told) - where_thin > 0.06

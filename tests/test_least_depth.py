@@ -98,3 +98,23 @@ def test_pile_tops_clearance_on_a_stated_datum(jacket_small, tmp_path: Path) -> 
             assert abs(-p["least_depth"] - high) < max(p["least_depth_tvu95"], 0.01)
     assert "Least depths" in (out / "report.html").read_text()
     assert "least_depth_clearance" in (out / "piles.csv").read_text().splitlines()[0]
+
+
+def test_a_narrow_top_that_one_line_crossed_is_confirmed_by_its_next_ping() -> None:
+    """Two lines' pings interleave over a unit (0.1 m apart in all), but over its narrow top
+    only one line's pings passed, 0.33 m apart: every top sounding is confirmed by the next
+    ping of that line, farther off than the unit's median ping gap. A flier up there is still
+    left out."""
+    rng = np.random.default_rng(5)
+    rows = []
+    for k, x in enumerate(np.arange(-1.5, 1.5, 0.1)):  # the unit's flank: pings 0.1 m apart
+        y = np.arange(-1.5, 1.5, 0.06)
+        y = y[(np.abs(x) > 0.5) | (np.abs(y) > 0.6)]
+        rows += [(x, v, -11.0 + rng.normal(0, 0.01), k) for v in y]
+    for k, x in enumerate((-0.33, 0.0, 0.33)):  # the top, 0.9 m by 1 m, by one line only
+        rows += [(x, v, -10.0 + rng.normal(0, 0.01), 100 + k) for v in np.arange(-0.5, 0.5, 0.06)]
+    pts, ping = np.array([r[:3] for r in rows]), np.array([r[3] for r in rows])
+    ld = least_depth(pts, ping=ping, noise=0.01)
+    assert abs(ld.z + 10.0) < 0.02 and ld.fliers == 0
+    flier = least_depth(np.vstack([pts, [[0.1, 0.2, -9.6]]]), ping=np.r_[ping, 7], noise=0.01)
+    assert abs(flier.z + 10.0) < 0.02 and flier.fliers == 1

@@ -4,8 +4,10 @@ those meet, and a clearance verdict.
 
 Not the single shoalest sounding: a flier must not make an object shoaler. A sounding
 counts only when another ping confirms it (a sounding of another ping within a few sounding
-spacings in plan and within the noise in height), which keeps the one or two soundings of a
-real mast (every ping that passes over it sees it) and drops a flier (no other ping does).
+spacings in plan, or 1.5 times the distance to that ping's nearest sounding where the pings
+there lie farther apart, and within the noise in height), which keeps the one or two
+soundings of a real mast (every ping that passes over it sees it) and drops a flier (no
+other ping does).
 The least depth is the median of the upper surface around the confirmed shoalest sounding
 (the soundings within reach down to twice the noise band below it): on a flat top, the top;
 on a peak, within its soundings' spread, which the TVU carries.
@@ -185,21 +187,50 @@ def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sig
     order = np.argsort(-pts[:, 2], kind="stable")
     fliers = 0
     for c in order[:CANDIDATES]:
-        around = np.asarray(tree.query_ball_point(pts[c, :2], reach), np.int64)
+        near_reach = reach if ping is None else _reach_at(pts, tree, np.asarray(ping), int(c), reach)
+        around = np.asarray(tree.query_ball_point(pts[c, :2], near_reach), np.int64)
         near = around[np.abs(pts[around, 2] - pts[c, 2]) <= tol]
         others = near[near != c] if ping is None else near[np.asarray(ping)[near] != np.asarray(ping)[c]]
         if len(others):
             # the upper surface there: every sounding within a wider reach, down to twice the
             # noise band (a narrow top's few soundings would keep the shoalest's noise)
-            wide = np.asarray(tree.query_ball_point(pts[c, :2], max(SURFACE_REACH * reach, 0.5)), np.int64)
+            wide = np.asarray(tree.query_ball_point(pts[c, :2], max(SURFACE_REACH * near_reach, 0.5)),
+                              np.int64)
             dz = pts[wide, 2] - pts[c, 2]
             surface = wide[(dz >= -2 * tol) & (dz <= tol)]  # the fliers over it left out
-            return _estimate(pts[surface], sigma, level_sigma, spacing, position_sigma, fliers)
+            # confirmed only beyond the usual reach: the wider search agrees by chance more
+            # often, so soundings of WIDE_PINGS pings must stand within the noise of it
+            widened = float(np.hypot(*(pts[others, :2] - pts[c, :2]).T).min()) > reach
+            level = wide[np.abs(dz) <= tol]
+            if not widened or len(np.unique(np.asarray(ping)[level])) >= WIDE_PINGS:
+                return _estimate(pts[surface], sigma, level_sigma, spacing, position_sigma, fliers)
         fliers += 1
     top = pts[order[0]]
     return LeastDepth(float(top[2]), float(top[0]), float(top[1]), math.nan, math.nan, 1, 0,
                       note=f"no sounding among the {min(len(pts), CANDIDATES)} shoalest confirmed by another "
                            "ping: the shoalest taken, its uncertainty unknown")
+
+
+#: Soundings searched round a candidate for the nearest of another ping.
+NEAREST_OTHER = 64
+#: Pings whose soundings must stand within the noise of a candidate confirmed only beyond
+#: the object's usual reach (:func:`_reach_at`), within the upper surface's reach: through 1°
+#: cones, cone-raised soundings 0.3 m over a double cross's top, on two pings 0.4 m apart,
+#: confirmed each other, and the least depth read 0.18-0.31 m shoal; the real top of a unit on
+#: its side held four pings' soundings.
+WIDE_PINGS = 3
+
+
+def _reach_at(pts: np.ndarray, tree: cKDTree, ping: np.ndarray, c: int, reach: float) -> float:
+    """The reach (m) within which another ping confirms the candidate ``c``: ``reach``, or
+    1.5 times the plan distance to the nearest sounding of another ping where that stands
+    farther (the median gap between pings is that of the whole object, where two lines' pings
+    interleave; over a narrow top only one line's pings may pass, 0.33 m apart where the
+    median gap was 0.2 m, and every top sounding was left out as a flier: a double cross on
+    its side read 0.5 m deep through 1° cones)."""
+    d, nb = tree.query(pts[c, :2], k=min(len(pts), NEAREST_OTHER))
+    other = np.flatnonzero(ping[np.atleast_1d(nb)] != ping[c])
+    return max(reach, 1.5 * float(np.atleast_1d(d)[other[0]])) if len(other) else reach
 
 
 def _ping_gap(pts: np.ndarray, tree: cKDTree, ping: np.ndarray | None) -> float:
