@@ -4,8 +4,9 @@ sailed on other lines with other noise and a datum and position offset; each sur
 extracted, then compared (:func:`mbinspect.change.compare_surveys`) against the true change.
 
 Run: ``python benchmarks/study_change.py [--seeds 10] [--configs default,...] [--workers 2]``;
-``--real [--placements 3] [--ring 6]``: reefs injected into the real files instead (:func:`_real`;
-``--ring``: unchanged units round the four changed ones, where the file covers them).
+``--real [--placements 3] [--ring 6] [--beam DEG]``: reefs injected into the real files instead
+(:func:`_real`; ``--ring``: unchanged units round the four changed ones, where the file covers
+them; ``--beam``: injected through cones that wide, both reef chains told the beam).
 
 Rows per configuration: the registration's error against the offset applied in plan and,
 in height, against the offset the two surveys realise (the one applied plus the difference
@@ -259,19 +260,25 @@ def _ring(cloud, square: list, n: int, rng: np.random.Generator) -> list:
     return out
 
 
-def _real(placements: int, ring: int = 6) -> None:
+def _real(placements: int, ring: int = 6, beam_deg: float = 0.0) -> None:
     """Reefs injected into each real file that holds a square of them, the file's pings
     split in two (even and odd): two surveys of one place with the real seabed and the real
     noise, each epoch's noise from other pings of the same lines. No public pair of real
     surveys of one place holds objects; this is the file against itself with its noise
     resampled by the pings. The second epoch's units changed as :data:`REAL_CHANGES` says,
     and its soundings offset by (0.2, -0.1, 0.08) m; ``ring`` more units round them, unchanged
-    (:func:`_ring`, where the file covers them)."""
+    (:func:`_ring`, where the file covers them). With ``beam_deg``, every unit is injected
+    through cones that wide and both epochs' reef chains are told the beam."""
     from dataclasses import replace
 
+    from mbinspect.beam import Beam
     from mbinspect.inject import inject
     from mbinspect.io import PointCloud
-    from study_inject import _reef_square, compared, paired_halves
+    from study_inject import CONTRAST_DB, _reef_square, compared, paired_halves
+
+    beam = Beam(beam_across_deg=beam_deg, detection="auto") if beam_deg > 0 else None
+    told = {"beam_correction": True, "beam_width_deg": beam_deg, "detection": "auto",
+            "beam_contrast_db": CONTRAST_DB} if beam else {}
 
     shift = np.array([0.2, -0.1, 0.08])
     rows = []
@@ -296,13 +303,13 @@ def _real(placements: int, ring: int = 6) -> None:
                     u2 = u
                 changed.append(u2)
             def step(square=square, changed=changed, halves=halves) -> tuple:
-                ib = inject(halves[0].xyz, halves[0].fields, reefs=square)
-                ia = inject(halves[1].xyz, halves[1].fields, reefs=changed)
+                ib = inject(halves[0].xyz, halves[0].fields, reefs=square, beam=beam)
+                ia = inject(halves[1].xyz, halves[1].fields, reefs=changed, beam=beam)
                 a_xyz = ia.xyz + shift
                 rb = extract_reefs(PointCloud(ib.xyz, dict(halves[0].fields)), design=DESIGNS,
-                                   design_scale_tolerance=0.35)
+                                   design_scale_tolerance=0.35, **told)
                 ra = extract_reefs(PointCloud(a_xyz, dict(halves[1].fields)), design=DESIGNS,
-                                   design_scale_tolerance=0.35)
+                                   design_scale_tolerance=0.35, **told)
                 return ib, compare_surveys(rb, ra, ib.xyz, a_xyz, before_fields=halves[0].fields,
                                            after_fields=halves[1].fields)
 
@@ -369,9 +376,10 @@ def main() -> None:
     ap.add_argument("--real", action="store_true")
     ap.add_argument("--placements", type=int, default=3)
     ap.add_argument("--ring", type=int, default=6)
+    ap.add_argument("--beam", type=float, default=0.0)
     known = own_flags(ap)
     if known.real:
-        _real(known.placements, known.ring)
+        _real(known.placements, known.ring, known.beam)
         return
     chosen, results = run_study(__doc__, list(CONFIGS), 10, run_one)
     regs, dets, errs, heights = [], [], [], []

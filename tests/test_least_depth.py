@@ -118,3 +118,6 @@ def test_a_narrow_top_that_one_line_crossed_is_confirmed_by_its_next_ping() -> N
     assert abs(ld.z + 10.0) < 0.02 and ld.fliers == 0
     flier = least_depth(np.vstack([pts, [[0.1, 0.2, -9.6]]]), ping=np.r_[ping, 7], noise=0.01)
     assert abs(flier.z + 10.0) < 0.02 and flier.fliers == 1
+    # told the beam: cones that may have lifted the top's soundings 0.2 m confirm nothing that far
+    lifted = least_depth(pts, ping=ping, noise=0.01, lift=np.where(pts[:, 2] > -10.5, 0.2, 0.0))
+    assert abs(lifted.z + 11.0) < 0.02

@@ -147,7 +147,7 @@ def clearance(depth: float, tvu95: float, minimum: float) -> str:
 
 def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sigma: float = 0.0,
                 spacing: float | None = None, noise: float | None = None,
-                position_sigma: float = 0.0) -> LeastDepth:
+                position_sigma: float = 0.0, lift: np.ndarray | None = None) -> LeastDepth:
     """The least depth of an object's soundings.
 
     Parameters
@@ -167,6 +167,10 @@ def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sig
         upper surface.
     position_sigma : float
         The soundings' horizontal position 1-sigma (m) the THU adds.
+    lift : ndarray (N,), optional
+        Told the beam, how far each sounding's cone may have sounded it high (m,
+        :func:`~mbinspect.reefs.shape.cone_reach`): a sounding confirmed only by the wider
+        search (:func:`_reach_at`) must not have been lifted beyond the noise.
 
     Returns
     -------
@@ -202,7 +206,8 @@ def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sig
             # often, so soundings of WIDE_PINGS pings must stand within the noise of it
             widened = float(np.hypot(*(pts[others, :2] - pts[c, :2]).T).min()) > reach
             level = wide[np.abs(dz) <= tol]
-            if not widened or len(np.unique(np.asarray(ping)[level])) >= WIDE_PINGS:
+            if not widened or (len(np.unique(np.asarray(ping)[level])) >= WIDE_PINGS
+                               and (lift is None or lift[c] <= tol)):
                 return _estimate(pts[surface], sigma, level_sigma, spacing, position_sigma, fliers)
         fliers += 1
     top = pts[order[0]]
@@ -217,7 +222,9 @@ NEAREST_OTHER = 64
 #: the object's usual reach (:func:`_reach_at`), within the upper surface's reach: through 1°
 #: cones, cone-raised soundings 0.3 m over a double cross's top, on two pings 0.4 m apart,
 #: confirmed each other, and the least depth read 0.18-0.31 m shoal; the real top of a unit on
-#: its side held four pings' soundings.
+#: its side held four pings' soundings. Told the beam, such a candidate's cone must also not
+#: have lifted it beyond the noise (``lift``): with pings 0.25 m apart three pings' cones
+#: heard the same raised edge, 0.2-0.28 m over the top.
 WIDE_PINGS = 3
 
 

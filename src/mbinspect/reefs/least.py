@@ -31,7 +31,8 @@ def with_least_depth(obj: T, rows: np.ndarray, context: Context, min_clearance: 
     """
     pts = context.points[rows]
     ping = None if context.ping is None else context.ping[rows]
-    ld = least_depth(pts, ping=ping, level_sigma=_level_sigma(pts, rows, context), noise=noise)
+    lift = None if context.reach is None else context.reach[rows]
+    ld = least_depth(pts, ping=ping, level_sigma=_level_sigma(pts, rows, context), noise=noise, lift=lift)
     return replace(obj, least=ld.fields(min_clearance))  # type: ignore[type-var]
 
 
