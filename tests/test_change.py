@@ -262,3 +262,39 @@ def test_simulate_resurvey_from_the_command_line(tmp_path, capsys):
     assert main(["simulate", "reef-field", "--resurvey", str(tmp_path / "b" / "truth.json"), "--shift", "1,2",
                  "--out", str(tmp_path / "x")]) != 0
     assert "expected three finite numbers dx,dy,dz" in capsys.readouterr().err
+
+
+def test_told_the_beam_a_tiled_laz_result_and_an_ascii_one_are_compared(tmp_path, capsys):
+    """Both surveys through 1° cones, the reef chains told the beam: the first from LAZ in
+    tiles, the second from three ASCII columns (its transducers estimated from the seabed).
+    Each result carries every unit's beam footprint, the comparison reads its seabed beyond
+    it, and the settled and overturned units come out while the others stay within their bounds."""
+    before = simulate("reef-field", seed=3, groups="cross2,hollow", per_group=9, close_pairs=2,
+                      beam_across_deg=1.0)
+    after = resurvey(before.truth, (Change(3, settlement=0.35), Change(13, orientation="on its side")),
+                     seed=8, shift=SHIFT)
+    write(PointCloud(before.cloud.xyz, before.cloud.fields, crs="EPSG:32617"), tmp_path / "before.laz")
+    np.savetxt(tmp_path / "after.xyz", after.cloud.xyz, fmt="%.3f")
+    told = ["--design", "cross2,hollow", "--no-figures", "--beam-correction", "--beam-width-deg", "1"]
+    assert main(["reefs", str(tmp_path / "before.laz"), "--out", str(tmp_path / "rb"), "--tiled",
+                 "--tile-size", "110", "--workers", "1", *told]) == 0
+    assert main(["reefs", str(tmp_path / "after.xyz"), "--crs", "EPSG:32617", "--out", str(tmp_path / "ra"),
+                 *told]) == 0
+    for side in ("rb", "ra"):
+        rows = json.loads((tmp_path / side / "reefs.json").read_text())["reefs"]
+        assert rows and all(0.2 < r["beam_footprint"] < 0.5 for r in rows)
+    capsys.readouterr()
+    assert main(["change", str(tmp_path / "rb"), str(tmp_path / "ra"), "--out", str(tmp_path / "ch")]) == 0
+    objects = json.loads((tmp_path / "ch" / "change.json").read_text())["objects"]
+    truth = before.truth["reefs"]
+    by = {_true_id(o["x_before"], o["y_before"], truth): o for o in objects if o["id_before"] is not None}
+    assert abs(by[3]["settlement"] - 0.35) < by[3]["settlement_lod95"] and by[3]["status"] == "changed"
+    true = {o["id"]: o for o in after.truth["change"]["objects"]}
+    turned = true[13]["height_after"] - true[13]["height_before"]  # a hollow square on its side: 1.5 m
+    assert by[13]["overturned_after"]
+    assert abs(by[13]["height_change"] - turned) <= by[13]["height_change_lod95"]
+    quiet = [o for i, o in by.items() if i not in (3, 13) and o["status"] in ("changed", "unchanged")]
+    assert len(quiet) >= 14
+    within = [abs(o["height_change"]) <= o["height_change_lod95"] for o in quiet]
+    assert sum(within) >= 0.9 * len(quiet)
+    assert math.sqrt(np.mean([o["height_change"] ** 2 for o in quiet])) < 0.05
