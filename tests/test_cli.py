@@ -311,3 +311,20 @@ def test_library_names_in_messages_become_flags(tmp_path, capsys):
 
     with pytest.raises(ValueError, match="give `columns`"):  # the library names its own option
         read(five)
+
+
+def test_an_inputs_sha256_taken_beside_the_run_is_the_files_as_it_is(tmp_path) -> None:
+    """The digest started when the file is read is the one recorded; a file written again
+    before the record is made is hashed again."""
+    import hashlib
+
+    from mbinspect.cli.inputs import file_records, hash_soon
+
+    path = tmp_path / "a.xyz"
+    path.write_text("1 2 -3\n" * 1000)
+    hash_soon([path])
+    assert file_records([path])[0]["sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
+    hash_soon([path])
+    path.write_text("1 2 -3\n" * 999 + "1 2 -4\n" + "5 6 -7\n")
+    assert file_records([path])[0]["sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
+    hash_soon([tmp_path / "missing.xyz"])  # the read says what is wrong with it
