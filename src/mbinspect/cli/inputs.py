@@ -183,6 +183,8 @@ def run_pipeline(kind: str, args: argparse.Namespace, files: Sequence[Path], opt
     the output's staging folder, so that an interrupted run leaves none behind."""
     from ..survey.run import run_survey
 
+    hash_soon(files)
+
     def note(text: str) -> None:
         if verbosity >= 0:
             print(f"mbinspect: {text}", file=sys.stderr, flush=True)
