@@ -205,11 +205,13 @@ def _file_key(path: str | os.PathLike[str]) -> tuple[str, int, int]:
 
 
 def hash_soon(files: Sequence[Path]) -> None:
-    """Start each input's sha256 in a thread of its own, beside the read and the work
-    (hashlib lets go of the interpreter's lock while it hashes: 0.25 s for a 110 MB ASCII
-    file, which the provenance then waited for at the end); :func:`file_records` takes it."""
+    """Start the inputs' sha256 in a thread, one file after the other, beside the read and
+    the work (hashlib lets go of the interpreter's lock while it hashes: 0.25 s for a 110 MB
+    ASCII file, which the provenance then waited for at the end); :func:`file_records` takes
+    each digest."""
     from ..io import sha256_of
 
+    todo: list[tuple[Future[str], Path]] = []
     for path in files:
         try:
             key = _file_key(path)
@@ -218,15 +220,18 @@ def hash_soon(files: Sequence[Path]) -> None:
         if key not in _HASHES:
             started: Future[str] = Future()
             _HASHES[key] = started
-            threading.Thread(target=_hash_into, args=(started, sha256_of, path), name="mbinspect-sha256",
-                             daemon=True).start()
+            todo.append((started, path))
+    if todo:
+        threading.Thread(target=_hash_into, args=(todo, sha256_of), name="mbinspect-sha256",
+                         daemon=True).start()
 
 
-def _hash_into(started: Future[str], sha256_of: Callable[[Path], str], path: Path) -> None:
-    try:
-        started.set_result(sha256_of(path))
-    except BaseException as exc:  # raised where the digest is wanted
-        started.set_exception(exc)
+def _hash_into(todo: list[tuple[Future[str], Path]], sha256_of: Callable[[Path], str]) -> None:
+    for started, path in todo:
+        try:
+            started.set_result(sha256_of(path))
+        except BaseException as exc:  # raised where the digest is wanted
+            started.set_exception(exc)
 
 
 def file_records(files: Sequence[Path]) -> list[dict[str, Any]]:
