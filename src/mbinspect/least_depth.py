@@ -177,6 +177,7 @@ def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sig
     LeastDepth
     """
     pts = np.asarray(points, np.float64)
+    ping = None if ping is None else np.asarray(ping)
     if len(pts) < 2:
         return LeastDepth(math.nan, math.nan, math.nan, math.nan, math.nan, len(pts),
                           note="fewer than two soundings")
@@ -191,10 +192,10 @@ def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sig
     order = np.argsort(-pts[:, 2], kind="stable")
     fliers = 0
     for c in order[:CANDIDATES]:
-        near_reach = reach if ping is None else _reach_at(pts, tree, np.asarray(ping), int(c), reach)
+        near_reach = reach if ping is None else _reach_at(pts, tree, ping, int(c), reach)
         around = np.asarray(tree.query_ball_point(pts[c, :2], near_reach), np.int64)
         near = around[np.abs(pts[around, 2] - pts[c, 2]) <= tol]
-        others = near[near != c] if ping is None else near[np.asarray(ping)[near] != np.asarray(ping)[c]]
+        others = near[near != c] if ping is None else near[ping[near] != ping[c]]
         if len(others):
             # the upper surface there: every sounding within a wider reach, down to twice the
             # noise band (a narrow top's few soundings would keep the shoalest's noise)
@@ -206,7 +207,7 @@ def least_depth(points: np.ndarray, *, ping: np.ndarray | None = None, level_sig
             # often, so soundings of WIDE_PINGS pings must stand within the noise of it
             widened = float(np.hypot(*(pts[others, :2] - pts[c, :2]).T).min()) > reach
             level = wide[np.abs(dz) <= tol]
-            if not widened or (len(np.unique(np.asarray(ping)[level])) >= WIDE_PINGS
+            if not widened or (ping is not None and len(np.unique(ping[level])) >= WIDE_PINGS
                                and (lift is None or lift[c] <= tol)):
                 return _estimate(pts[surface], sigma, level_sigma, spacing, position_sigma, fliers)
         fliers += 1
@@ -235,9 +236,17 @@ def _reach_at(pts: np.ndarray, tree: cKDTree, ping: np.ndarray, c: int, reach: f
     interleave; over a narrow top only one line's pings may pass, 0.33 m apart where the
     median gap was 0.2 m, and every top sounding was left out as a flier: a double cross on
     its side read 0.5 m deep through 1° cones)."""
-    d, nb = tree.query(pts[c, :2], k=min(len(pts), NEAREST_OTHER))
-    other = np.flatnonzero(ping[np.atleast_1d(nb)] != ping[c])
-    return max(reach, 1.5 * float(np.atleast_1d(d)[other[0]])) if len(other) else reach
+    gap = float(_nearest_other(pts, tree, ping, np.array([c]), NEAREST_OTHER)[0])
+    return max(reach, 1.5 * gap) if math.isfinite(gap) else reach
+
+
+def _nearest_other(pts: np.ndarray, tree: cKDTree, ping: np.ndarray, rows: np.ndarray, k: int) -> np.ndarray:
+    """Each of ``rows``' plan distance to the nearest sounding of another ping among its
+    ``k`` nearest (NaN: none there)."""
+    d, idx = tree.query(pts[rows, :2], k=min(len(pts), k))
+    d, idx = d.reshape(len(rows), -1), idx.reshape(len(rows), -1)
+    other = ping[idx] != ping[rows, None]
+    return np.where(other.any(axis=1), d[np.arange(len(rows)), other.argmax(axis=1)], np.nan)
 
 
 def _ping_gap(pts: np.ndarray, tree: cKDTree, ping: np.ndarray | None) -> float:
@@ -245,12 +254,8 @@ def _ping_gap(pts: np.ndarray, tree: cKDTree, ping: np.ndarray | None) -> float:
     pings)."""
     if ping is None:
         return 0.0
-    p = np.asarray(ping)
     rows = np.linspace(0, len(pts) - 1, min(len(pts), 100)).astype(np.int64)
-    k = min(len(pts), 24)
-    d, idx = tree.query(pts[rows, :2], k=k)
-    other = p[idx] != p[rows, None]
-    first = np.where(other.any(axis=1), d[np.arange(len(rows)), other.argmax(axis=1)], np.nan)
+    first = _nearest_other(pts, tree, np.asarray(ping), rows, 24)
     return float(np.nanmedian(first)) if np.isfinite(first).any() else 0.0
 
 
