@@ -10,7 +10,15 @@ import pytest
 
 from mbinspect.errors import InputError, ParameterError
 from mbinspect.geometry import polygon_area
-from mbinspect.reef_designs import BUILTIN_DESIGNS, DesignBox, ReefDesign, parse_designs, read_design
+from mbinspect.reef_designs import (
+    BUILTIN_DESIGNS,
+    DesignBox,
+    Grow,
+    ReefDesign,
+    box_distances,
+    parse_designs,
+    read_design,
+)
 from mbinspect.reefs.pose import fit_design
 from mbinspect.simulate import Reef, Seabed, reef_boxes, reef_truth
 
@@ -104,3 +112,36 @@ def test_hollow_square_has_its_hole_and_its_outer_walls():
     corner = np.array([7.0, 8.0]) + 1.5 * math.sqrt(2) * np.array([math.sin(math.radians(70.0)),
                                                                   math.cos(math.radians(70.0))])
     assert d.signed_distance(corner[None], 7.0, 8.0, 25.0)[0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_design_fitted_as_the_beam_heard_it_keeps_its_size_and_place():
+    # soundings as a wide beam hears them: the reef reaches past every edge by the bloom, farther
+    # along the track (x) than across it and farther on the side away from each sounding's sonar
+    # (half of them heard from the north, half from the south)
+    d = BUILTIN_DESIGNS["cross2"]
+    rng = np.random.default_rng(11)
+    pts = rng.uniform(-3.5, 3.5, (5000, 2)) + [50.0, -20.0]
+    x, y, b = 50.2, -19.9, 28.0
+    reaches = np.array([0.25, 0.28, 0.3, 0.3, 0.3, 0.15, 0.05, 0.02,
+                        0.02, 0.02, 0.05, 0.15, 0.3, 0.3, 0.3, 0.28])
+    north = rng.random(len(pts)) < 0.5
+    outward = np.where(north[:, None], [0.0, -1.0], [0.0, 1.0])  # away from the sonar across the track
+    grow = Grow(reaches, outward, np.ones(len(pts)))
+    heard = np.min(box_distances(d, pts, x, y, b, 1.0, grow=grow)[0], axis=1) < 0
+    blind = fit_design(pts, heard, ~heard, d, x0=50.0, y0=-20.0)
+    told = fit_design(pts, heard, ~heard, d, x0=50.0, y0=-20.0, grow=grow)
+    assert blind.scale > 1.08  # fitted as a needle would have drawn it: the bloom taken for concrete
+    assert told.scale == pytest.approx(1.0, abs=0.02)
+    assert np.hypot(told.x - x, told.y - y) < 0.03
+    period = 360.0 / d.symmetry
+    err = (told.bearing_deg - b) % period
+    assert min(err, period - err) < 1.5
+
+
+def test_each_sounding_is_grown_from_its_own_side():
+    reaches = np.array([0.3, 0.2, 0.1, 0.2])  # away from the sonar, along, toward it, along
+    g = Grow(reaches, np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([1.0, 2.0]))
+    east = g(np.array([[1.0, 0.0], [0.0, 1.0]]))
+    assert east[0] == pytest.approx([0.3, 0.2])  # the east edge faces away from the first sounding's sonar
+    assert east[1] == pytest.approx([0.2, 0.4])  # toward the second's, heard at twice the range
+    assert g.subset(np.array([1]))(np.array([[-1.0, 0.0]]))[0, 0] == pytest.approx(0.6)

@@ -40,6 +40,7 @@ __all__ = [
     "parse_designs",
     "read_design",
     "box_distances",
+    "Grow",
     "rotate",
 ]
 
@@ -295,12 +296,50 @@ def parse_designs(spec: str | Sequence[str | ReefDesign] | None) -> tuple[ReefDe
     return tuple(out)
 
 
+@dataclass(frozen=True, eq=False)
+class Grow:
+    """How far (m) each side of a footprint is moved out for each of N soundings, by the
+    side's outward plan normal: ``reaches`` (D,) or each sounding's own (N, D), for normals
+    turned in equal steps from the sounding's ``outward`` (N, 2) plan unit vector toward its
+    left, times its ``factor`` (N,). A wide beam's bloom (:mod:`mbinspect.reefs.beam`): each
+    sounding heard from its own side and at its own range."""
+
+    reaches: np.ndarray
+    outward: np.ndarray
+    factor: np.ndarray
+
+    def __call__(self, normals: np.ndarray) -> np.ndarray:
+        """The reach at outward unit normals (K, 2), for every sounding: (N, K)."""
+        ox, oy = self.outward[:, 0:1], self.outward[:, 1:2]
+        nx, ny = normals[None, :, 0], normals[None, :, 1]
+        phi = np.arctan2(ny * ox - nx * oy, nx * ox + ny * oy)
+        n_dir = self.reaches.shape[-1]
+        k = (phi % (2 * np.pi)) / (2 * np.pi) * n_dir
+        k0 = np.floor(k).astype(np.int64)
+        w = k - k0
+        k0 %= n_dir
+        k1 = (k0 + 1) % n_dir
+        if self.reaches.ndim == 1:
+            r0, r1 = self.reaches[k0], self.reaches[k1]
+        else:
+            r0, r1 = np.take_along_axis(self.reaches, k0, 1), np.take_along_axis(self.reaches, k1, 1)
+        return ((1 - w) * r0 + w * r1) * self.factor[:, None]
+
+    def subset(self, rows: np.ndarray) -> Grow:
+        """The same for the soundings ``rows``."""
+        return Grow(self.reaches if self.reaches.ndim == 1 else self.reaches[rows], self.outward[rows],
+                    self.factor[rows])
+
+
 def box_distances(design: ReefDesign, p: np.ndarray, x: float, y: float, bearing_deg: float,
-                   scale: float, *, grad: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+                   scale: float, *, grad: bool = False, grow: Grow | None = None
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
     """Signed plan distance of points (N, 2) to each box's rectangle at a pose: (N, B).
 
     With ``grad``, also its derivatives by (x, y, bearing in degrees, log scale): (N, B, 4);
-    else None.
+    else None. ``grow`` moves each side of every rectangle out by its value at the side's
+    outward plan normal (m; a wide beam's bloom, which does not scale with the design): its
+    change with the bearing is left out of the derivatives.
     """
     off, half, ang = design.plan_boxes
     t = math.radians(bearing_deg)
@@ -313,8 +352,15 @@ def box_distances(design: ReefDesign, p: np.ndarray, x: float, y: float, bearing
     ry = p[:, 1:2] - (y + ccy)
     pa = rx * ux + ry * uy
     pb = rx * uy - ry * ux
-    qa = np.abs(pa) - scale * half[:, 0]
-    qb = np.abs(pb) - scale * half[:, 1]
+    ha, hb = scale * half[:, 0], scale * half[:, 1]
+    if grow is not None:
+        # the sides facing +a, -a, +b, -b moved out: each rectangle's centre and half-sides
+        ga = grow(np.column_stack([ux, uy])), grow(np.column_stack([-ux, -uy]))
+        gb = grow(np.column_stack([uy, -ux])), grow(np.column_stack([-uy, ux]))
+        pa, pb = pa - (ga[0] - ga[1]) / 2, pb - (gb[0] - gb[1]) / 2
+        ha, hb = ha + (ga[0] + ga[1]) / 2, hb + (gb[0] + gb[1]) / 2
+    qa = np.abs(pa) - ha
+    qb = np.abs(pb) - hb
     oa, ob = np.maximum(qa, 0.0), np.maximum(qb, 0.0)
     out = np.hypot(oa, ob)
     d = out + np.minimum(np.maximum(qa, qb), 0.0)

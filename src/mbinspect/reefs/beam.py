@@ -36,11 +36,13 @@ from ..beam import (
     frame,
     window,
 )
+from ..grid import cell_index
 from ..pings import ping_geometry
+from ..reef_designs import Grow
 from .footprint import Raster
 from .measure import own_soundings
 
-__all__ = ["Sight", "sight", "reach", "structure", "contrast_db", "unbloom_parts"]
+__all__ = ["Bloom", "Sight", "sight", "reach", "structure", "contrast_db", "unbloom_parts", "heard_rows"]
 
 
 
@@ -187,22 +189,69 @@ def structure(reaches: np.ndarray, outward: tuple[float, float] | None, one_side
     direction's reach (:func:`reach`; the first away from the sonar), turned to the track
     (``outward``); each direction's and its mirror's larger where the reef was seen from both
     sides, a disc of the mean reach where the track's heading is unknown."""
-    n_dir = len(reaches)
-    phis = 2 * np.pi * np.arange(n_dir) / n_dir
-    if outward is None:
-        reaches = np.full(n_dir, float(np.mean(reaches)))
-    elif not one_side:
-        mirror = (n_dir // 2 - np.arange(n_dir)) % n_dir  # the same edge seen from the other side
-        reaches = np.maximum(reaches, reaches[mirror])
-    n = int(math.ceil(float(reaches.max()) / cell))
-    jj, ii = np.mgrid[-n:n + 1, -n:n + 1] * cell
-    ox, oy = outward or (1.0, 0.0)
-    p, q = ii * ox + jj * oy, -ii * oy + jj * ox  # across (outward) and along the track
-    out = np.ones(ii.shape, bool)
-    for phi, r in zip(phis, reaches, strict=True):
-        out &= p * math.cos(phi) + q * math.sin(phi) <= r + 1e-9
-    out[n, n] = True
-    return out
+    return Bloom.of(reaches, outward, one_side).structure(cell)
+
+
+@dataclass(frozen=True, eq=False)
+class Bloom:
+    """How far past each edge of one footprint the beam's echo still stood on the reef: the
+    reach (m) for :data:`DIRECTIONS` outward normals turned from ``outward`` (away from the
+    sonar across the track) toward the track (:func:`reach`, ``raw``), at the median slant
+    range ``rng``; ``reaches`` with a mirror's larger taken where the footprint was seen from
+    both sides, the mean every way where the heading is unknown (``outward`` then (1, 0))."""
+
+    reaches: np.ndarray
+    outward: tuple[float, float]
+    raw: np.ndarray
+    rng: float
+    view: Sight
+
+    @classmethod
+    def of(cls, raw: np.ndarray, outward: tuple[float, float] | None, one_side: bool, rng: float = 1.0,
+           view: Sight | None = None) -> Bloom:
+        n_dir = len(raw)
+        reaches = raw
+        if outward is None:
+            reaches = np.full(n_dir, float(np.mean(raw)))
+        elif not one_side:
+            mirror = (n_dir // 2 - np.arange(n_dir)) % n_dir  # the same edge seen from the other side
+            reaches = np.maximum(raw, raw[mirror])
+        if view is None:
+            view = Sight(np.empty((0, 3)), np.empty((0, 3)), Beam(), DEFAULT_CONTRAST_DB)
+        return cls(np.asarray(reaches, np.float64), outward or (1.0, 0.0), np.asarray(raw, np.float64), rng,
+                   view)
+
+    def grow(self, points: np.ndarray, rows: np.ndarray) -> Grow:
+        """The bloom each of the soundings ``rows`` was heard with, by the outward normal of an
+        edge (:class:`~mbinspect.reef_designs.Grow`): the footprint's reach as cast from the
+        sounding's own side of the track (``raw``), in proportion to its slant range; the
+        footprint's reach from both sides where its swath's axis is unknown."""
+        n = len(rows)
+        out = np.tile(np.array(self.outward, np.float64), (n, 1))
+        if not len(self.view.origins):
+            return Grow(self.reaches, out, np.ones(n))
+        ray = points[rows] - self.view.origins[rows]
+        factor = np.clip(np.linalg.norm(ray, axis=1) / max(self.rng, 1e-9), 0.5, 2.0)
+        ax = self.view.axes[rows, :2]
+        if not np.isfinite(ax[:, 0]).all():
+            return Grow(self.reaches, out, factor)
+        side = np.where(np.sum(ray[:, :2] * ax, axis=1) >= 0, 1.0, -1.0)
+        out = ax * (side / np.maximum(np.hypot(ax[:, 0], ax[:, 1]), 1e-12))[:, None]
+        return Grow(self.raw, out, factor)
+
+    def structure(self, cell: float) -> np.ndarray:
+        """The bloom's shape as a raster structuring element on cells of ``cell`` m."""
+        n_dir = len(self.reaches)
+        phis = 2 * np.pi * np.arange(n_dir) / n_dir
+        n = int(math.ceil(float(self.reaches.max()) / cell))
+        jj, ii = np.mgrid[-n:n + 1, -n:n + 1] * cell
+        ox, oy = self.outward
+        p, q = ii * ox + jj * oy, -ii * oy + jj * ox  # across (outward) and along the track
+        out = np.ones(ii.shape, bool)
+        for phi, r in zip(phis, self.reaches, strict=True):
+            out &= p * math.cos(phi) + q * math.sin(phi) <= r + 1e-9
+        out[n, n] = True
+        return out
 
 
 def _eroded(cells: np.ndarray, nx: int, se: np.ndarray) -> np.ndarray:
@@ -222,28 +271,61 @@ def _eroded(cells: np.ndarray, nx: int, se: np.ndarray) -> np.ndarray:
 
 def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, is_reef: np.ndarray,
                   height: np.ndarray, view: Sight, *, min_height: float = 0.3
-                  ) -> tuple[list[np.ndarray], Raster]:
+                  ) -> tuple[list[np.ndarray], Raster, list[Bloom | None]]:
     """Every part's footprint with its bloom taken off: eroded by the bloom's shape
-    (:func:`reach`, :func:`structure`) at the part's range, beam angle, height and heading.
-    Returns the parts' cells (flat raster indices) and the raster with the bloom's cells
-    unlabelled (and marked in its ``bloom``)."""
+    (:func:`reach`, :class:`Bloom`) at the part's range, beam angle, height and heading.
+    Returns the parts' cells (flat raster indices), the raster with the bloom's cells
+    unlabelled (and marked in its ``bloom``), and each part's bloom (None where none was cast)."""
     ny, nx = raster.labels.shape
     labels = raster.labels.copy()
-    out = []
+    out: list[np.ndarray] = []
+    blooms: list[Bloom | None] = []
     for cells in parts:
         rows = own_soundings(cells, raster, is_reef)
         if len(rows) < 3:
             out.append(cells)
+            blooms.append(None)
             continue
         rng, cos, outward, one_side = seen_from(points, rows, view)
         tall = float(np.percentile(height[rows], 95))
-        se = structure(reach(view.beam, rng, cos, tall, view.contrast_db, min_height=min_height),
-                       outward, one_side, raster.cell / SUB)
-        keep = _eroded(cells, nx, se)
+        bloom = Bloom.of(reach(view.beam, rng, cos, tall, view.contrast_db, min_height=min_height),
+                         outward, one_side, rng, view)
+        blooms.append(bloom)
+        keep = _eroded(cells, nx, bloom.structure(raster.cell / SUB))
         if not keep.any():
             out.append(cells)
             continue
         labels.ravel()[cells[~keep]] = 0
         out.append(cells[keep])
-    bloom = (labels == 0) & (raster.labels > 0)
-    return out, Raster(raster.x0, raster.y0, raster.cell, labels, raster.nearest, bloom)
+    bloomed = (labels == 0) & (raster.labels > 0)
+    return out, Raster(raster.x0, raster.y0, raster.cell, labels, raster.nearest, bloomed), blooms
+
+
+def heard_rows(points: np.ndarray, cells: np.ndarray, raster: Raster, is_reef: np.ndarray, bloom: Bloom,
+               margin: int = 8) -> np.ndarray:
+    """A part's reef soundings as the beam heard them: those nearest to its cells, and those
+    standing in cells its bloom was taken off (:func:`unbloom_parts`) within the bloom's
+    reach of it and no nearer to another part (indices, sorted)."""
+    ny, nx = raster.labels.shape
+    own = own_soundings(cells, raster, is_reef)
+    if raster.bloom is None:
+        return own
+    cj, ci = np.divmod(cells, nx)
+    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
+    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
+    idx = np.unique(raster.nearest[j0:j1, i0:i1])
+    idx = idx[idx >= 0]
+    idx = idx[is_reef[idx]]
+    if not len(idx):
+        return own
+    mine = np.zeros((j1 - j0, i1 - i0), bool)
+    mine[cj - j0, ci - i0] = True
+    other = (raster.labels[j0:j1, i0:i1] > 0) & ~mine
+    near = ndimage.distance_transform_edt(~mine) * raster.cell
+    far = ndimage.distance_transform_edt(~other) * raster.cell if other.any() else np.full(mine.shape, np.inf)
+    i, j = cell_index(points[idx], raster.x0, raster.y0, raster.cell)
+    i, j = i - i0, j - j0
+    ok = (i >= 0) & (i < i1 - i0) & (j >= 0) & (j < j1 - j0)
+    idx, i, j = idx[ok], i[ok], j[ok]
+    keep = (near[j, i] <= far[j, i]) & (near[j, i] <= float(bloom.reaches.max()) + raster.cell)
+    return np.union1d(own, idx[keep])

@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 
 from ..geometry import min_area_rectangle
 from ..reef_designs import ReefDesign
+from .beam import Bloom, heard_rows
 from .footprint import Raster
 from .measure import own_soundings, soundings_around
 from .pose import DesignFit, fit_design, scale_at_bound
@@ -24,8 +25,8 @@ __all__ = ["fit_reef_design", "join_by_design", "share_by_design", "with_design"
 def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_reef: np.ndarray,
                     height: np.ndarray, designs: Sequence[ReefDesign], *, margin: int = 8,
                     ground: float = 0.15, max_misfit: float = 0.2, reef_height: float | None = None,
-                    own: np.ndarray | None = None, window: np.ndarray | None = None
-                    ) -> DesignFit | None:
+                    own: np.ndarray | None = None, window: np.ndarray | None = None,
+                    bloom: Bloom | None = None) -> DesignFit | None:
     """The design that best explains one reef's soundings, fitted (:func:`fit_design`).
 
     The soundings are those nearest to the raster cells within ``margin`` cells of the
@@ -61,6 +62,10 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_re
         The reef's measured height (m).
     own, window : ndarray of int, optional
         The reef's soundings, and the cells searched.
+    bloom : Bloom, optional
+        Told the beam, the reef's bloom (:func:`~mbinspect.reefs.beam.unbloom_parts`): its
+        soundings are those as heard (:func:`~mbinspect.reefs.beam.heard_rows`), and the
+        design is fitted as the beam draws it, each side moved out by the bloom's reach.
 
     Examples
     --------
@@ -89,14 +94,16 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_re
     wj, wi = np.divmod(cells if window is None else window, raster.nearest.shape[1])
     idx = soundings_around(raster, wj, wi, margin)
     if own is None:
-        own = own_soundings(cells, raster, is_reef)
+        own = own_soundings(cells, raster, is_reef) if bloom is None else \
+            heard_rows(points, cells, raster, is_reef, bloom)
     inside = np.isin(idx, own)
     # seabed, and the soundings of other reefs (a touching neighbour stays outside)
     outside = (~is_reef[idx] & (np.abs(height[idx]) <= ground)) | (is_reef[idx] & ~inside)
     if inside.sum() < 5 or (inside | outside).sum() < 10:
         return None
     x0, y0 = points[own, 0].mean(), points[own, 1].mean()
-    fits = [fit_design(points[idx, :2], inside, outside, d, x0=x0, y0=y0, height=height[idx])
+    grow = None if bloom is None else bloom.grow(points, idx)
+    fits = [fit_design(points[idx, :2], inside, outside, d, x0=x0, y0=y0, height=height[idx], grow=grow)
             for d in designs]
     best = min(fits, key=lambda f: f.loss)
     if best.misfit > max_misfit or scale_at_bound(best.scale):
@@ -107,7 +114,7 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_re
 def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
                               is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
                               fits: list[DesignFit | None], heights: list[float], *,
-                              max_misfit: float = 0.1
+                              max_misfit: float = 0.1, blooms: Sequence[Bloom | None] | None = None
                               ) -> tuple[list[np.ndarray], list[DesignFit | None], list[float]]:
     """Join two neighbouring parts that one fitted design explains at least as well as two.
 
@@ -135,6 +142,8 @@ def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
     heights : list of float
         Each part's height (m).
     max_misfit : float
+    blooms : sequence of Bloom or None, optional
+        Told the beam, each part's bloom (a joined part keeps the first's).
 
     Returns
     -------
@@ -162,7 +171,8 @@ def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
                 continue
         union = np.concatenate([parts[i], parts[j]])
         f = fit_reef_design(points, union, raster, is_reef, height, designs,
-                            reef_height=max(heights[i], heights[j]), max_misfit=max_misfit)
+                            reef_height=max(heights[i], heights[j]), max_misfit=max_misfit,
+                            bloom=None if blooms is None else blooms[i])
         apart = sum(math.inf if g is None else g.loss for g in (fits[i], fits[j]))
         if f is not None and f.loss <= apart and all(_covers(f, by_name[f.design], parts[k], raster)
                                                      for k in (i, j)):
@@ -186,8 +196,8 @@ def _covers(fit: DesignFit, design: ReefDesign, cells: np.ndarray, raster: Raste
 
 def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Raster,
                       is_reef: np.ndarray, height: np.ndarray, designs: Sequence[ReefDesign],
-                      fits: list[DesignFit | None], heights: Sequence[float], rounds: int = 2
-                      ) -> list[DesignFit | None]:
+                      fits: list[DesignFit | None], heights: Sequence[float], rounds: int = 2,
+                      blooms: Sequence[Bloom | None] | None = None) -> list[DesignFit | None]:
     """Share the soundings of touching reefs by their fitted designs, and fit again.
 
     Where two reefs lie close (their fitted footprints within 0.5 m), the split between
@@ -208,6 +218,8 @@ def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Ras
     heights : sequence of float
     rounds : int
         Rounds of sharing and fitting per pair.
+    blooms : sequence of Bloom or None, optional
+        Told the beam, each reef's bloom: its soundings as heard are shared.
 
     Returns
     -------
@@ -224,7 +236,9 @@ def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Ras
     pairs = [(ok[a], ok[b]) for a, b in sorted(tree.query_pairs(2 * float(rad.max()) + 0.5))
              if np.hypot(*(cen[a] - cen[b])) < rad[a] + rad[b] + 0.5]
     for i, j in pairs:
-        own = np.union1d(own_soundings(parts[i], raster, is_reef), own_soundings(parts[j], raster, is_reef))
+        bi, bj = (None, None) if blooms is None else (blooms[i], blooms[j])
+        own = np.union1d(*(own_soundings(parts[k], raster, is_reef) if b is None else
+                           heard_rows(points, parts[k], raster, is_reef, b) for k, b in ((i, bi), (j, bj))))
         window = np.concatenate([parts[i], parts[j]])
         for _ in range(rounds):
             fi, fj = fits[i], fits[j]
@@ -238,9 +252,9 @@ def share_by_design(points: np.ndarray, parts: Sequence[np.ndarray], raster: Ras
             if mine.all() or not mine.any():
                 break
             fits[i] = fit_reef_design(points, parts[i], raster, is_reef, height, designs,
-                                      reef_height=heights[i], own=own[mine], window=window)
+                                      reef_height=heights[i], own=own[mine], window=window, bloom=bi)
             fits[j] = fit_reef_design(points, parts[j], raster, is_reef, height, designs,
-                                      reef_height=heights[j], own=own[~mine], window=window)
+                                      reef_height=heights[j], own=own[~mine], window=window, bloom=bj)
     return fits
 
 

@@ -37,7 +37,7 @@ from scipy.optimize import least_squares
 
 from ..errors import ParameterError
 from ..outputs import to_jsonable
-from ..reef_designs import ReefDesign, box_distances, rotate
+from ..reef_designs import Grow, ReefDesign, box_distances, rotate
 
 __all__ = ["DesignFit", "fit_design", "SCALE_BOUNDS", "scale_at_bound"]
 
@@ -132,7 +132,7 @@ def _roles(design: ReefDesign, inside: np.ndarray, height: np.ndarray | None, ba
 def fit_design(xy: np.ndarray, inside: np.ndarray, outside: np.ndarray, design: ReefDesign, *,
                x0: float, y0: float, height: np.ndarray | None = None, sigma: float = 0.03,
                cap: float = 0.12, band: float = 0.25, size_prior: float = 0.1,
-               scale_range: tuple[float, float] = SCALE_BOUNDS) -> DesignFit:
+               scale_range: tuple[float, float] = SCALE_BOUNDS, grow: Grow | None = None) -> DesignFit:
     """Fit a design's pose (x, y, bearing) and size factor to the soundings around a reef.
 
     Costs, each ``(distance / sigma)²`` up to ``(cap / sigma)²``: a reef sounding outside
@@ -166,6 +166,11 @@ def fit_design(xy: np.ndarray, inside: np.ndarray, outside: np.ndarray, design: 
         they win.
     scale_range : (float, float)
         Bounds of the size factor.
+    grow : Grow, optional
+        How far (m) a wide beam's bloom moves each side of the footprint out for each
+        sounding, by the side's outward normal (:func:`~mbinspect.reef_designs.box_distances`):
+        the soundings are then those as heard, bloom and all, and the design is fitted as the
+        beam drew it.
 
     Returns
     -------
@@ -186,7 +191,8 @@ def fit_design(xy: np.ndarray, inside: np.ndarray, outside: np.ndarray, design: 
     use, wall, above = _roles(design, inside, height, band)
     c = np.array([x0, y0])
     problem = _Pose(design, p[sel] - c, inside[sel], use[sel], wall[sel], above[sel],  # near the origin
-                    sigma, cap, size_prior, math.log(scale_range[0]), math.log(scale_range[1]))
+                    sigma, cap, size_prior, math.log(scale_range[0]), math.log(scale_range[1]),
+                    None if grow is None else grow.subset(np.flatnonzero(sel)))
     period = 360.0 / design.symmetry
     best = None
     for b in _bearing_starts(problem, period):
@@ -224,10 +230,11 @@ class _Pose:
     size_prior: float
     lo: float
     hi: float
+    grow: Grow | None = None
 
     def distances(self, v: np.ndarray) -> np.ndarray:
         scale = math.exp(min(max(v[3], self.lo), self.hi))
-        db, _ = box_distances(self.design, self.p, v[0], v[1], v[2], scale)
+        db, _ = box_distances(self.design, self.p, v[0], v[1], v[2], scale, grow=self.grow)
         return np.where(self.use, db, np.inf).min(axis=1)
 
     def wrong_side(self, d: np.ndarray) -> np.ndarray:
@@ -240,7 +247,8 @@ class _Pose:
 
     def jacobian(self, v: np.ndarray, sigma: float, cap: float) -> np.ndarray:
         ls = min(max(v[3], self.lo), self.hi)
-        db, g = box_distances(self.design, self.p, v[0], v[1], v[2], math.exp(ls), grad=True)
+        db, g = box_distances(self.design, self.p, v[0], v[1], v[2], math.exp(ls), grad=True,
+                              grow=self.grow)
         assert g is not None
         if ls != v[3]:
             g[..., 3] = 0.0

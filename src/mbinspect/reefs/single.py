@@ -17,7 +17,7 @@ from ..noise import robust_sigma
 from ..reef_designs import ReefDesign
 from ..seabed import GROUND_BAND
 from ..strays import cell_groups
-from .beam import Sight, unbloom_parts
+from .beam import Bloom, Sight, unbloom_parts
 from .fit_design import fit_reef_design, join_by_design, share_by_design, with_design
 from .footprint import Raster
 from .ground import Seabed
@@ -25,6 +25,7 @@ from .least import with_least_depth
 from .measure import measure_reef, own_soundings, soundings_around
 from .options import ReefOptions
 from .orient import overturned_unit, with_rest
+from .pose import DesignFit
 from .reject import Candidate, Context, design_misfit, other_object, why_not_a_reef
 from .results import OtherObject, Reef
 from .shape import cone_radius, cone_reach, ground_soundings
@@ -140,7 +141,7 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     members : list of ndarray of int
         Each reef's soundings: the reef points (rows of ``points``) in its footprint.
     """
-    parts, small, raster, used_area, heard = _footprints(points, is_reef, height, options, view)
+    parts, small, raster, used_area, heard, blooms = _footprints(points, is_reef, height, options, view)
     ground = ~is_reef & (np.abs(height) <= GROUND_BAND)
     noise = robust_sigma(height[ground]) if ground.sum() >= 10 else None  # the seabed's spread: the noise
     reach, cone = _cones(points, view)
@@ -148,15 +149,8 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
     reefs = [measure_reef(points, p, raster, seabed, reef_id=0, is_reef=is_reef, sigma=sigma) for p in parts]
     designs = options.designs
     if designs:
-        fits = [fit_reef_design(points, p, raster, is_reef, height, designs, reef_height=r.height)
-                for r, p in zip(reefs, parts, strict=True)]
-        measured = {id(p): r for p, r in zip(parts, reefs, strict=True)}
-        parts, fits, heights = join_by_design(points, parts, raster, is_reef, height, designs, fits,
-                                              [r.height for r in reefs])
-        # only the joined parts are new arrays: measure those again
-        reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef, sigma=sigma)
-                 for p in parts]
-        fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights)
+        parts, reefs, fits = _by_design(points, is_reef, height, seabed, raster, parts, reefs, blooms,
+                                        designs, sigma)
     free = reefs
     if designs:
         reefs = [with_design(r, f, designs) for r, f in zip(reefs, fits, strict=True)]
@@ -197,6 +191,28 @@ def single_reefs(points: np.ndarray, is_reef: np.ndarray, seabed: Seabed, height
             kept.append(r)
             kept_members.append(m)
     return kept, others, used_area, kept_members
+
+
+def _by_design(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, seabed: Seabed, raster: Raster,
+               parts: list[np.ndarray], reefs: list[Reef], blooms: list[Bloom | None],
+               designs: Sequence[ReefDesign], sigma: np.ndarray | None
+               ) -> tuple[list[np.ndarray], list[Reef], list[DesignFit | None]]:
+    """Each part fitted by its design (:func:`fit_reef_design`; told the beam, as heard with
+    its bloom), parts one design explains joined (:func:`join_by_design`) and measured again,
+    touching reefs' soundings shared (:func:`share_by_design`): the parts, their free-form
+    measures and their fits."""
+    fits = [fit_reef_design(points, p, raster, is_reef, height, designs, reef_height=r.height, bloom=b)
+            for r, p, b in zip(reefs, parts, blooms, strict=True)]
+    measured = {id(p): r for p, r in zip(parts, reefs, strict=True)}
+    by_cell = {int(p[0]): b for p, b in zip(parts, blooms, strict=True)}
+    parts, fits, heights = join_by_design(points, parts, raster, is_reef, height, designs, fits,
+                                          [r.height for r in reefs], blooms=blooms)
+    blooms = [by_cell.get(int(p[0])) for p in parts]  # a joined part starts with its first's cells
+    # only the joined parts are new arrays: measure those again
+    reefs = [measured.get(id(p)) or measure_reef(points, p, raster, seabed, is_reef=is_reef, sigma=sigma)
+             for p in parts]
+    fits = share_by_design(points, parts, raster, is_reef, height, designs, fits, heights, blooms=blooms)
+    return parts, reefs, fits
 
 
 def _free_rest(posed: Reef, free: Reef, rest: Callable[[Reef], Reef], designs: Sequence[ReefDesign]) -> Reef:
@@ -241,29 +257,31 @@ Heard = dict[int, tuple[np.ndarray, np.ndarray]]
 
 def _footprints(points: np.ndarray, is_reef: np.ndarray, height: np.ndarray, options: ReefOptions,
                 view: Sight | None
-                ) -> tuple[list[np.ndarray], list[np.ndarray], Raster, float, Heard]:
+                ) -> tuple[list[np.ndarray], list[np.ndarray], Raster, float, Heard, list[Bloom | None]]:
     """The footprints split into single reefs (:func:`split_reefs`), each with the beam's
-    bloom taken off when told the beam (:func:`~mbinspect.reefs.beam.unbloom_parts`), and
-    each such part's cells as heard, by the part's ``id`` (a part joined by design has none)."""
+    bloom taken off when told the beam (:func:`~mbinspect.reefs.beam.unbloom_parts`), each
+    such part's cells as heard, by the part's ``id`` (a part joined by design has none), and
+    each part's bloom (None when not told; the pieces of a part the bloom joined share it)."""
     parts, small, raster, used_area = split_reefs(points, is_reef, cell=options.cell,
                                                   reef_area=options.reef_area, height=height,
                                                   min_area=options.min_area, seed=options.seed)
     heard: Heard = {}
-    if view is not None:
-        bloomed = parts
-        parts, raster = unbloom_parts(points, parts, raster, is_reef, height, view,
-                                      min_height=options.min_height)
-        # what is left of a part under min_area was mostly bloom: a small object heard wide
-        least = options.min_area / raster.cell**2
-        small = small + [p for p in parts if len(p) < least]
-        heard = {id(p): (p, b) for p, b in zip(parts, bloomed, strict=True) if len(p) < len(b)}
-        # two reefs the bloom joined come apart once it is off: each its own part (heard as none)
-        parts = [p for p in parts if len(p) >= least]
-        one = APART_SHARE * float(np.median([len(p) for p in parts])) if parts else least
-        necks = [_neck(points, p, raster, is_reef, view) for p in parts]
-        parts = [q for p, k in zip(parts, necks, strict=True)
-                 for q in _apart(p, raster.labels.shape[1], max(least, one), k, hollow=least)]
-    return parts, small, raster, used_area, heard
+    if view is None:
+        return parts, small, raster, used_area, heard, [None] * len(parts)
+    bloomed = parts
+    parts, raster, blooms = unbloom_parts(points, parts, raster, is_reef, height, view,
+                                          min_height=options.min_height)
+    # what is left of a part under min_area was mostly bloom: a small object heard wide
+    least = options.min_area / raster.cell**2
+    small = small + [p for p in parts if len(p) < least]
+    heard = {id(p): (p, b) for p, b in zip(parts, bloomed, strict=True) if len(p) < len(b)}
+    # two reefs the bloom joined come apart once it is off: each its own part (heard as none)
+    big = [(p, b) for p, b in zip(parts, blooms, strict=True) if len(p) >= least]
+    one = APART_SHARE * float(np.median([len(p) for p, _ in big])) if big else least
+    nx = raster.labels.shape[1]
+    split = [(q, b) for p, b in big
+             for q in _apart(p, nx, max(least, one), _neck(points, p, raster, is_reef, view), hollow=least)]
+    return [q for q, _ in split], small, raster, used_area, heard, [b for _, b in split]
 
 
 #: Least share of the median reef's cells (once the bloom is off) a piece of a part must hold
