@@ -10,7 +10,8 @@ same plan as upright), six units a field overturned (on a side or upside down: e
 distinct ways, :func:`mbinspect.design_solids.distinct_orientations`), every unit leaning
 0-12° (``-level``: none; ``-beam``: cast through 1° cones; ``-told``: the reef chain told
 the beam), four reef-sized rocks among
-them. Columns: overturned units found as reefs and flagged overturned; upright units found,
+them. Columns: overturned units found as reefs, flagged overturned and left undecided (the
+rest read upright); upright units found,
 flagged overturned in error, left undecided; the top tilt's error against the true lean for
 the units upright or upside down (RMS, max, within 2σ); reefs found where no unit is
 (extra); ``extract_reefs`` seconds. The ``default`` row is the preset as it was (no unit
@@ -89,7 +90,7 @@ def _row(label: str, rs: list[dict]) -> list[str]:
     ok = np.isfinite(tilt).all(axis=1)
     e, s = tilt[ok, 0], tilt[ok, 1]
     return [label, f"{len(rs)}", f"{turned[:, 0].sum()}/{len(turned)}", f"{turned[:, 1].sum()}",
-            f"{up[:, 0].sum()}/{len(up)}", f"{up[:, 1].sum()}", f"{up[:, 2].sum()}",
+            f"{turned[:, 2].sum()}", f"{up[:, 0].sum()}/{len(up)}", f"{up[:, 1].sum()}", f"{up[:, 2].sum()}",
             f"{math.sqrt(np.mean(e ** 2)):.2f}" if ok.any() else "-",
             f"{np.abs(e).max():.2f}" if ok.any() else "-",
             f"{100 * np.mean(np.abs(e) <= 2 * s):.0f} %" if ok.any() else "-", f"{int((~ok).sum())}",
@@ -97,9 +98,9 @@ def _row(label: str, rs: list[dict]) -> list[str]:
             f"{np.mean([r['seconds'] for r in rs]):.1f}" if rs and "seconds" in rs[0] else "-"]
 
 
-HEAD = ["config", "seeds / placements", "overturned found", "flagged overturned", "upright found",
-        "flagged overturned in error", "undecided", "tilt error RMS deg", "max deg", "within 2σ",
-        "no tilt (top too small)", "extra reefs", "extract s"]
+HEAD = ["config", "seeds / placements", "overturned found", "flagged overturned", "overturned undecided",
+        "upright found", "flagged overturned in error", "undecided", "tilt error RMS deg", "max deg",
+        "within 2σ", "no tilt (top too small)", "extra reefs", "extract s"]
 
 
 def _real(placements: int) -> None:
