@@ -246,14 +246,18 @@ def test_cli_runs_on_a_real_scheduler_on_loopback(reef_lines, in_memory, tmp_pat
 def test_tiled_reefs_told_the_beam_are_the_in_memory_reefs(tmp_path: Path) -> None:
     """Each tile keeps the beam angles and intensities the beam correction needs (a tile
     that kept only the pings placed every transducer at the surface over its sounding: tops
-    0.33 m off, areas 13 % off)."""
+    0.33 m off, areas 13 % off); the designs fitted as heard, each sounding's bloom from its
+    own transducer, are the same in each tile as in one cloud."""
     simulate_lines("reef-field", tmp_path, seed=5, beam_across_deg=1.0, **REEF_SCENE)
     files = expand_inputs([tmp_path])
-    opts = ReefOptions(seabed="grid", beam_correction=True, beam_width_deg=1.0)
+    opts = ReefOptions(seabed="grid", beam_correction=True, beam_width_deg=1.0, design="cross2,cross1")
     whole = run_survey("reefs", files, opts, SurveyOptions()).result
     tiled = run_survey("reefs", files, opts, SurveyOptions(tiled=True, tile_size=130.0, workers=1))
     assert tiled.tiles >= 4
     _same_reefs(whole, tiled.result)
+    assert sum(bool(r.design) for r in tiled.result.reefs) >= 0.7 * len(tiled.result.reefs)  # 28 of 36
+    scales = [r.design_scale for r in tiled.result.reefs]
+    assert [r.design_scale for r in whole.reefs] == pytest.approx(scales, abs=1e-3, nan_ok=True)
     assert all(0.2 < r.beam_footprint < 0.6 for r in tiled.result.reefs)  # 1° at 17 m, 1-2 depths away
 
 
