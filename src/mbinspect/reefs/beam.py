@@ -40,7 +40,7 @@ from ..grid import cell_index
 from ..pings import ping_geometry
 from ..reef_designs import Grow
 from .footprint import Raster
-from .measure import own_soundings
+from .measure import own_soundings, soundings_around
 
 __all__ = ["Bloom", "Sight", "sight", "reach", "structure", "contrast_db", "unbloom_parts", "heard_rows"]
 
@@ -197,14 +197,15 @@ class Bloom:
     """How far past each edge of one footprint the beam's echo still stood on the reef: the
     reach (m) for :data:`DIRECTIONS` outward normals turned from ``outward`` (away from the
     sonar across the track) toward the track (:func:`reach`, ``raw``), at the median slant
-    range ``rng``; ``reaches`` with a mirror's larger taken where the footprint was seen from
-    both sides, the mean every way where the heading is unknown (``outward`` then (1, 0))."""
+    range ``rng`` of the soundings ``view`` saw; ``reaches`` with a mirror's larger taken
+    where the footprint was seen from both sides, the mean every way where the heading is
+    unknown (``outward`` then (1, 0))."""
 
     reaches: np.ndarray
     outward: tuple[float, float]
     raw: np.ndarray
-    rng: float
-    view: Sight
+    rng: float = 1.0
+    view: Sight | None = None
 
     @classmethod
     def of(cls, raw: np.ndarray, outward: tuple[float, float] | None, one_side: bool, rng: float = 1.0,
@@ -216,8 +217,6 @@ class Bloom:
         elif not one_side:
             mirror = (n_dir // 2 - np.arange(n_dir)) % n_dir  # the same edge seen from the other side
             reaches = np.maximum(raw, raw[mirror])
-        if view is None:
-            view = Sight(np.empty((0, 3)), np.empty((0, 3)), Beam(), DEFAULT_CONTRAST_DB)
         return cls(np.asarray(reaches, np.float64), outward or (1.0, 0.0), np.asarray(raw, np.float64), rng,
                    view)
 
@@ -228,7 +227,7 @@ class Bloom:
         footprint's reach from both sides where its swath's axis is unknown."""
         n = len(rows)
         out = np.tile(np.array(self.outward, np.float64), (n, 1))
-        if not len(self.view.origins):
+        if self.view is None:
             return Grow(self.reaches, out, np.ones(n))
         ray = points[rows] - self.view.origins[rows]
         factor = np.clip(np.linalg.norm(ray, axis=1) / max(self.rng, 1e-9), 0.5, 2.0)
@@ -303,29 +302,26 @@ def unbloom_parts(points: np.ndarray, parts: list[np.ndarray], raster: Raster, i
 
 def heard_rows(points: np.ndarray, cells: np.ndarray, raster: Raster, is_reef: np.ndarray, bloom: Bloom,
                margin: int = 8) -> np.ndarray:
-    """A part's reef soundings as the beam heard them: those nearest to its cells, and those
-    standing in cells its bloom was taken off (:func:`unbloom_parts`) within the bloom's
-    reach of it and no nearer to another part (indices, sorted)."""
-    ny, nx = raster.labels.shape
+    """A part's reef soundings as the beam heard them: those nearest to its cells, and every
+    other reef sounding within the bloom's reach of them (:func:`unbloom_parts`) that stands
+    no nearer to another part (indices, sorted)."""
     own = own_soundings(cells, raster, is_reef)
     if raster.bloom is None:
         return own
-    cj, ci = np.divmod(cells, nx)
-    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
-    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
-    idx = np.unique(raster.nearest[j0:j1, i0:i1])
-    idx = idx[idx >= 0]
+    cj, ci = np.divmod(cells, raster.labels.shape[1])
+    rows, cols = raster.window(cj, ci, margin)
+    idx = soundings_around(raster, cj, ci, margin)
     idx = idx[is_reef[idx]]
     if not len(idx):
         return own
-    mine = np.zeros((j1 - j0, i1 - i0), bool)
-    mine[cj - j0, ci - i0] = True
-    other = (raster.labels[j0:j1, i0:i1] > 0) & ~mine
+    mine = np.zeros((rows.stop - rows.start, cols.stop - cols.start), bool)
+    mine[cj - rows.start, ci - cols.start] = True
+    other = (raster.labels[rows, cols] > 0) & ~mine
     near = ndimage.distance_transform_edt(~mine) * raster.cell
     far = ndimage.distance_transform_edt(~other) * raster.cell if other.any() else np.full(mine.shape, np.inf)
     i, j = cell_index(points[idx], raster.x0, raster.y0, raster.cell)
-    i, j = i - i0, j - j0
-    ok = (i >= 0) & (i < i1 - i0) & (j >= 0) & (j < j1 - j0)
+    i, j = i - cols.start, j - rows.start
+    ok = (i >= 0) & (i < mine.shape[1]) & (j >= 0) & (j < mine.shape[0])
     idx, i, j = idx[ok], i[ok], j[ok]
     keep = (near[j, i] <= far[j, i]) & (near[j, i] <= float(bloom.reaches.max()) + raster.cell)
     return np.union1d(own, idx[keep])

@@ -35,6 +35,13 @@ class Raster:
         cj, ci = np.divmod(np.asarray(cells), self.labels.shape[1])
         return np.column_stack([self.x0 + (ci + 0.5) * self.cell, self.y0 + (cj + 0.5) * self.cell])
 
+    def window(self, cj: np.ndarray, ci: np.ndarray, margin: int) -> tuple[slice, slice]:
+        """The rows and columns of the bounding box of cells (cj, ci) widened by ``margin``
+        cells, within the raster."""
+        ny, nx = self.labels.shape
+        return (slice(max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)),
+                slice(max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)))
+
     def in_bloom(self, points: np.ndarray) -> np.ndarray:
         """Whether each of ``points`` stands in a cell the bloom was taken off (all False
         when no bloom was, or outside the raster)."""

@@ -62,10 +62,7 @@ def soundings_around(raster: Raster, cj: np.ndarray, ci: np.ndarray, margin: int
     -------
     ndarray of int
     """
-    ny, nx = raster.nearest.shape
-    j0, j1 = max(int(cj.min()) - margin, 0), min(int(cj.max()) + margin + 1, ny)
-    i0, i1 = max(int(ci.min()) - margin, 0), min(int(ci.max()) + margin + 1, nx)
-    idx = np.unique(raster.nearest[j0:j1, i0:i1])
+    idx = np.unique(raster.nearest[raster.window(cj, ci, margin)])
     return idx[idx >= 0]
 
 
