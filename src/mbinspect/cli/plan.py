@@ -185,6 +185,6 @@ def _print(result: Any) -> None:
             worst = (f"{1000 * p.worst_sigma:.1f} mm" if math.isfinite(p.worst_sigma)
                      else "a spacing not measured")
             print(f"  {p.layout.name}: {p.time_on_site_s / 60:.0f} min, worst {worst}"
-                  f"{' (meets)' if p.meets_target else ''}, {p.surveys} surveys")
+                  f"{' (meets)' if p.meets_target else ''}, {p.surveys} survey{'s' * (p.surveys != 1)}")
     for w in result.warnings:
         print(f"mbinspect: warning: {w}", file=sys.stderr)

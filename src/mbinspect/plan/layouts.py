@@ -126,12 +126,23 @@ def structure_frame(xy: np.ndarray, *, radius: float, groups: Sequence[int] | No
                  spans)
 
 
+#: The pile paper's '#': lines "generally 10-15 m" from piles whose tops stood 16 m down, under a
+#: 120-degree swath; the middle of that range as a share of the distance at which such a top is
+#: seen at the swath's edge (12.5 m of 27.7 m: 0.45).
+PAPER_SHARE = 12.5 / (16.0 * math.tan(math.radians(60.0)))
+
+
 def offsets_for(top_depth: float, max_angle_deg: float) -> tuple[float, ...]:
-    """Offsets (m) of lines outside the outer row: 0.3 and 0.5 of the distance at which a pile
-    top ``top_depth`` m below the transducer is seen at the swath's edge, to 0.5 m (farther
-    lines see the far row's faces past the swath's edge only)."""
+    """Offsets (m) of lines outside the outer row, as shares of the distance at which a pile
+    top ``top_depth`` m below the transducer is seen at the swath's edge, to 0.5 m: 0.3 (the
+    near sides seen at steep beams) and the pile paper's own (:data:`PAPER_SHARE`; farther
+    lines see the far row's faces past the swath's edge only).
+
+    >>> offsets_for(16.0, 60.0)
+    (8.5, 12.5)
+    """
     reach = top_depth * math.tan(math.radians(max_angle_deg))
-    return tuple(sorted({max(round(f * reach * 2) / 2, 1.0) for f in (0.3, 0.5)}))
+    return tuple(sorted({max(round(f * reach * 2) / 2, 1.0) for f in (0.3, PAPER_SHARE)}))
 
 
 def _along(f: Frame, b: float, margin: float, forward: bool) -> PlanLine:

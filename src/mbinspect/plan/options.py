@@ -72,7 +72,8 @@ class PlanOptions(Options):
     margin: float = option(20.0, unit="m", check="non_negative",
                            help="how far each line runs on beyond the outermost piles")
     offsets: str = option("auto", help="offsets (m) of the lines outside the outer piles, comma-separated, "
-                                       "or auto: 0.3 and 0.5 of where a top is seen at the swath's edge")
+                                       "or auto: 0.3 and 0.45 (the pile paper's '#') of where a top is "
+                                       "seen at the swath's edge")
     seeds: int = option(3, check="count", help="simulated surveys per candidate layout")
     max_seeds: int = option(9, check="count",
                             help="simulated surveys a layout predicted near the target gets at most, "
