@@ -312,7 +312,8 @@ def test_a_layout_predicted_near_the_target_is_surveyed_again_until_clear(monkey
     piles = design_piles(SQUARE, PlanOptions(radius=0.75, depth=21.0, height=5.0))
     pairs = [(a.id, b.id) for a in piles for b in piles if a.id < b.id]
     # each survey reports every spacing at the layout's own 1-sigma and errs by as much
-    sigma_of = {"near": 0.0105, "far": 0.02, "clear": 0.006, "blind": 0.006, "edge": 0.0096}
+    sigma_of = {"near": 0.0105, "far": 0.02, "clear": 0.006, "blind": 0.006, "edge": 0.0096,
+                "close": 0.0092}
 
     def fake(layout, piles_, setting, seed):
         s = sigma_of[layout.name]
@@ -329,17 +330,17 @@ def test_a_layout_predicted_near_the_target_is_surveyed_again_until_clear(monkey
         search.layouts[name] = lay
         search.trials[name] = []
         search.firm(name)
-    # 10.5 mm against 10 mm: the surveys agree (no scatter), so the bound is the floor, 0.2/sqrt(n):
-    # 12 % after 3 surveys, so surveyed again (one worker: one more at a time); 10 % after 4, when
-    # even its lower bound (9.45 mm) held at the upper bound 8 surveys give at best (7 %: 10.1 mm)
-    # misses 10 mm: set aside
-    # twice the target is set aside after two surveys, before the first three; a spacing no survey
-    # measured cannot meet any target: set aside after its first survey
-    # 9.6 mm: its lower bound stays under 10 mm, but held at the best bound 8 surveys give
-    # (10.3 mm) it misses: set aside from half the surveys (4), where it used to take all 8
-    assert {n: len(t) for n, t in search.trials.items()} == {"near": 4, "far": 2, "clear": 3, "blind": 1,
-                                                             "edge": 4}
-    assert len({t.seed for t in search.trials["near"]}) == 4
+    # the surveys agree (no scatter), so an estimate's bound is the floor, 0.2/sqrt(n): 12 % after
+    # 3 surveys, 7 % (1.07) at best after 8. 9.2 mm: 10.2 mm at its bound after 3, so surveyed again
+    # (one worker: one more at a time) until its bound is under 10 mm, after 6 (9.95 mm).
+    # 10.5 mm and 9.6 mm against 10 mm: held at the best bound 8 surveys give they miss (11.2 and
+    # 10.3 mm), so set aside once they have the 3 surveys a layout needs (9.6 mm took all 8 before)
+    # twice the target is set aside after two surveys, before the first three (its lower bound,
+    # held at that best bound, misses); a spacing no survey measured cannot meet any target: set
+    # aside after its first survey
+    assert {n: len(t) for n, t in search.trials.items()} == {"near": 3, "far": 2, "clear": 3, "blind": 1,
+                                                             "edge": 3, "close": 6}
+    assert len({t.seed for t in search.trials["close"]}) == 6
     with pytest.raises(ParameterError, match="max_seeds: 2; expected at least seeds"):
         PlanOptions(radius=0.75, depth=21.0, seeds=3, max_seeds=2)
 

@@ -224,8 +224,8 @@ class _Search:
         not under 12 % from three surveys or 7 % from nine) or cannot: a spacing some survey
         did not measure, or (from two surveys on) the target at or below the lower bound held
         at the upper bound ``max_seeds`` surveys could give at best (were the estimate to
-        fall that far, its bound would still miss the target), or (from half of
-        ``max_seeds`` on) the estimate itself held at that bound above the target."""
+        fall that far, its bound would still miss the target), or (from ``seeds`` surveys on)
+        the estimate itself held at that bound above the target."""
         seeds, first, step = self.seeds(), self.options.seeds, self.options.workers
         best = 1.0 + SCATTER_FLOOR / math.sqrt(len(seeds))
         while True:
@@ -234,10 +234,10 @@ class _Search:
                 now = self.prediction(name)
                 low, high = now.worst_sigma * (1 - now.sigma_error) * best, now.worst_upper
                 target = self.options.target_sigma
-                # from half the surveys on, an estimate that could not be confirmed even at the
-                # best precision left (were it to hold) is set aside: near the target, such
-                # layouts took every survey to the last and were not confirmed
-                held = done >= (len(seeds) + 1) // 2 and now.worst_sigma * best > target
+                # once it has the surveys a layout needs to meet the target, an estimate that
+                # could not be confirmed even at the best precision left (were it to hold) is set
+                # aside: near the target, such layouts took every survey to the last in vain
+                held = done >= first and now.worst_sigma * best > target
                 hopeless = not math.isfinite(now.worst_sigma) or (done >= 2 and low >= target) or held
                 if hopeless or done >= len(seeds) or (done >= first and high <= target):
                     return now
