@@ -145,3 +145,19 @@ def test_each_sounding_is_grown_from_its_own_side():
     assert east[0] == pytest.approx([0.3, 0.2])  # the east edge faces away from the first sounding's sonar
     assert east[1] == pytest.approx([0.2, 0.4])  # toward the second's, heard at twice the range
     assert g.subset(np.array([1]))(np.array([[-1.0, 0.0]]))[0, 0] == pytest.approx(0.6)
+
+
+def test_a_ridge_far_longer_than_a_design_is_not_held_by_it():
+    # a ridge 8 m long and 0.6 m wide (a crest, a pipe, a ping's artefact): a cross 2.6 m across
+    # can sit with its edges among the ridge's soundings, but the ridge's soundings metres beyond
+    # its arms are the fit's worst misfits and count against it; the cross itself still fits
+    d = BUILTIN_DESIGNS["cross1"]
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-5.0, 5.0, (4000, 2))
+    along = np.array([math.cos(math.radians(30.0)), math.sin(math.radians(30.0))])
+    u, v = pts @ along, pts @ np.array([-along[1], along[0]])
+    ridge = (np.abs(u) < 4.0) & (np.abs(v) < 0.3)
+    f = fit_design(pts, ridge, ~ridge, d, x0=0.0, y0=0.0)
+    assert f.misfit > 0.2  # more than fit_reef_design's max_misfit: no design
+    cross = d.signed_distance(pts, 0.2, -0.1, 40.0, 1.0) < 0
+    assert fit_design(pts, cross, ~cross, d, x0=0.0, y0=0.0).misfit < 0.05

@@ -32,9 +32,9 @@ def fit_reef_design(points: np.ndarray, cells: np.ndarray, raster: Raster, is_re
     The soundings are those nearest to the raster cells within ``margin`` cells of the
     reef: its own reef soundings (inside), and seabed soundings within ``ground`` m of the
     seabed and other reefs' soundings (outside). Of the designs, the one with the lowest
-    cost wins; None when it leaves more than ``max_misfit`` of the soundings
-    near its edge on the wrong side or its size factor sits at a bound (another kind of
-    object, a broken reef). Given the reef's measured ``reef_height``, only the designs
+    cost wins; None when it leaves more than ``max_misfit`` of the soundings near its edge
+    (and of the reef's own beyond it) on the wrong side or its size factor sits at a bound
+    (another kind of object, a broken reef). Given the reef's measured ``reef_height``, only the designs
     whose height is within 0.3 m + 20 % of it are tried (a single-layer cross under noise
     can look like a double-layer one whose upper layer was missed; its height tells), all
     of them when none is. ``own`` may give the reef's soundings (indices into ``points``)
@@ -183,8 +183,8 @@ def join_by_design(points: np.ndarray, parts: list[np.ndarray], raster: Raster,
 
 
 #: A design joining two parts must hold this share of each part's cells within
-#: :data:`COVER_REACH` m of its footprint: its misfit counts only the soundings near its edge,
-#: and a part lying wholly beyond them would not count against it.
+#: :data:`COVER_REACH` m of its footprint: its misfit counts the soundings near its edge and the
+#: parts' own beyond it as shares, and a small part lying wholly beyond would hardly move it.
 COVER_SHARE, COVER_REACH = 0.5, 0.25
 
 

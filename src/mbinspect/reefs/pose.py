@@ -45,6 +45,9 @@ __all__ = ["DesignFit", "fit_design", "SCALE_BOUNDS", "scale_at_bound"]
 #: How far (m) a sounding near the fitted edge may stand on its wrong side before it counts
 #: against the fit (:attr:`DesignFit.misfit`).
 MISFIT_TOLERANCE = 0.1
+#: Soundings this near (m) a fitted design's edge are those its misfit counts, with the reef's
+#: own soundings beyond it.
+EDGE_BAND = 0.5
 
 #: Told the beam, the share of a sounding's bloom (its reach past the edge it faces) added to
 #: :data:`MISFIT_TOLERANCE`: where a wide beam's echo stops standing on the reef varies by about
@@ -87,8 +90,9 @@ class DesignFit:
     """A design fitted to one reef: pose, as-built size factor and how well it fits.
 
     ``x, y`` are the fitted footprint's centroid; ``area`` the design's footprint area
-    times ``scale``²; ``misfit`` the share of the soundings within 0.5 m of the fitted edge
-    that lie more than 0.1 m on its wrong side (reef outside, seabed inside); ``origin``
+    times ``scale``²; ``misfit`` the share of the soundings within 0.5 m of the fitted edge,
+    and of the reef's own beyond it, that lie more than 0.1 m on its wrong side (reef
+    outside, seabed inside); ``n_edge`` how many were counted; ``origin``
     the design frame's origin at the fitted pose (for :meth:`ReefDesign.signed_distance`).
     """
 
@@ -213,13 +217,17 @@ def fit_design(xy: np.ndarray, inside: np.ndarray, outside: np.ndarray, design: 
     x, y, bearing, ls = best.x
     scale = math.exp(ls)
     d = problem.distances(best.x)
-    edge = np.abs(d) <= 0.5
+    edge = np.abs(d) <= EDGE_BAND
     ins = problem.inside
     tol = MISFIT_TOLERANCE
     if grow is not None:  # where the bloom ends is uncertain by a part of its reach
         bloom = np.maximum(replace(problem, grow=None).distances(best.x) - d, 0.0)
         tol = MISFIT_TOLERANCE + BLOOM_TOLERANCE * bloom
     wrong = (np.where(problem.wall, np.abs(d) > tol, np.where(ins, d > tol, d < -tol)) | problem.above) & edge
+    # the reef's own soundings beyond the edge's band are wrong too: a ridge 9 m long is no
+    # cross 3 m wide, however well the cross's edges sit among its soundings
+    far = ins & (d > EDGE_BAND)
+    wrong, edge = wrong | far, edge | far
     centroid = rotate(design.centroid * scale, bearing) + np.array([x, y]) + c
     return DesignFit(design.name, float(centroid[0]), float(centroid[1]), float(bearing % period),
                      scale, design.area * scale * scale, float(wrong.sum() / max(edge.sum(), 1)),
